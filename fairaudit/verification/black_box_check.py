@@ -12,7 +12,7 @@ The module reads, in this order: weak duality over the table (:class:`TableProgr
 certificate records for its black box (``bound_details.black_box``, :class:`Evidence`); the programs' data at each end
 of e^ε (:class:`KernelSetting`); each program bounded from its recorded proof, its lower end read off the recorded
 table (:func:`table_local`, :func:`table_global`); and the worst cases (:func:`black_box_enclosures`,
-:func:`pair_enclosures`).
+:func:`pair_enclosure`).
 
 Weak duality over the table is :mod:`~fairaudit.verification.table_program`; the recorded proofs are read by
 :mod:`~fairaudit.verification.evidence`.
@@ -29,7 +29,7 @@ for every pair (:func:`three_cell_settings`; for L̄ when P(x | a) is the same f
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any, NamedTuple
 
@@ -79,6 +79,8 @@ class KernelSetting:
         Whether g(u, x, a) is the same for every group (then L ≤ ε holds as well).
     evidence : Evidence
         The certificate's recorded proofs and witness tables.
+    cells : bool
+        Randomized response's three cells (:func:`three_cell_settings`): the pair (0, 1) stands for every pair.
     """
 
     sensitive: Rows  # M_A, (n_groups, n_released_groups)
@@ -90,6 +92,7 @@ class KernelSetting:
     present: list[int]
     group_free: bool
     evidence: Evidence = field(default_factory=Evidence)
+    cells: bool = False
 
     @property
     def k(self) -> int:
@@ -204,7 +207,7 @@ def three_cell_settings(
         rows = ((p, q, o), (q, p, o), (q, q, p + q * (len(others) - 1))) if others else ((p, q), (q, p))
         reduced = [[g[x][0]] * n for x in range(len(g))]
         w = [mean(row) for row in weights]
-        out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, ev))
+        out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, ev, True))
     return out
 
 
@@ -400,6 +403,9 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
     >>> table_local(s)
     (Fraction(6, 1), Fraction(6, 1), False)
     """
+    if s.cells and (at is None or at[1:] != (0, 1)):  # the pair (0, 1) stands for every pair, in each live context
+        ends = [table_local(s, (i, 0, 1)) for i in (range(len(s.live)) if at is None else [at[0]])]
+        return max(e[0] for e in ends), max(e[1] for e in ends), any(e[2] for e in ends)
     own = s.context is None  # (then a program per context)
     evidence = s.evidence
     cases = []
@@ -456,6 +462,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
     """
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False
+    at = (0, 1) if s.cells else at  # (the pair (0, 1) of the three cells stands for every pair)
     keys = reached_rows(s, s.live)
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
     groups = sorted({a for pair in pairs for a in pair})
@@ -522,10 +529,11 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     if isinstance(settings, str):
         return WorstCaseEnclosures(None, None, settings)
-    local, global_ = [_local(p) for p in settings], [_global(p) for p in settings]
+    local, global_ = [table_local(p[0]) for p in settings], [table_global(p[1]) for p in settings]
     duals = any(end[2] for end in local + global_)
-    first = settings[0]
-    return WorstCaseEnclosures(_span(local), _span(global_), "", _alike(first), first.local.group_free, duals)
+    s = settings[0][1]  # (independent: P(x | a) the same for every group present, exactly)
+    alike = s.cells or all(w[a] == w[s.present[0]] for w in s.weights for a in s.present)
+    return WorstCaseEnclosures(_span(local), _span(global_), "", alike, s.group_free, duals)
 
 
 def pair_enclosure(
@@ -579,12 +587,12 @@ def pair_enclosure(
         return None, False
     a, b = groups.index(group), groups.index(other_group)
     if context is None:
-        present = settings[0].several and {a, b} <= set(population(inputs, len(groups))[4])
-        ends = [_global(p, (a, b)) for p in settings] if present else None
+        present = {a, b} <= set(population(inputs, len(groups))[4])
+        ends = [table_global(p[1], (a, b)) for p in settings] if present else None
     else:
-        live = settings[0].local.live
+        live = settings[0][0].live
         i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
-        ends = None if i is None else [_local(p, (i, a, b)) for p in settings]
+        ends = None if i is None else [table_local(p[0], (i, a, b)) for p in settings]
     return _span(ends), any(e[2] for e in ends or [])
 
 
@@ -593,8 +601,8 @@ def _span(ends: list[Ends] | None) -> Enclosure | None:
     return None if ends is None else Enclosure(ends[0][0], ends[-1][1])
 
 
-def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] | str:
-    """The programs' data at each end of e^ε (one for exact rows), or why the black box is not re-derived."""
+def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[tuple[KernelSetting, KernelSetting]] | str:
+    """L's and L̄'s programs' data at each end of e^ε (one for exact rows), or why the black box is not re-derived."""
     m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
     if m.k < 2:
@@ -602,45 +610,11 @@ def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] 
     free = group_free(inputs["utility"]["values"])
     rr = m.kind == "randomized_response" and m.t().lo != INF  # (at ε = inf, the identity's rows)
     if not (rr and context.kind == "identity" and free):
-        settings = kernel_settings(inputs, m, context, evidence)
-        return [_Programs(s, s, False, False, len(s.present) >= 2) for s in settings]
+        return [(s, s) for s in kernel_settings(inputs, m, context, evidence)]
     local = three_cell_settings(inputs, m, evidence, (0, 1))
     _, _, _, weights, present, _ = population(inputs, m.k)
-    if len(present) < 2 or not all(w[a] == w[present[0]] for w in weights for a in present):
-        full = kernel_settings(inputs, m, context, evidence) if len(present) >= 2 else local
-        return [_Programs(s, f, True, False, len(present) >= 2) for s, f in zip(local, full, strict=True)]
-    global_ = three_cell_settings(inputs, m, evidence, (present[0], present[1]))
-    return [_Programs(s, t, True, True, True) for s, t in zip(local, global_, strict=True)]
-
-
-class _Programs(NamedTuple):
-    """One end's settings: L's and L̄'s, and whether each is randomized response's three cells (the pair (0, 1))."""
-
-    local: KernelSetting
-    global_: KernelSetting
-    local_cells: bool
-    global_cells: bool
-    several: bool  # at least two groups have P(A = a) > 0 (else L̄ = 0)
-
-
-def _alike(p: _Programs) -> bool:
-    """P(x | a) is the same for every group present (X and A independent among them), exactly."""
-    s = p.global_
-    return p.global_cells or all(w[a] == w[s.present[0]] for w in s.weights for a in s.present)
-
-
-def _local(p: _Programs, at: tuple[int, int, int] | None = None) -> Ends:
-    """L's worst ratio over the model's table (:func:`table_local`); behind randomized response's three cells the pair
-    (0, 1) stands for every pair, in every live context."""
-    if not p.local_cells:
-        return table_local(p.local, at)
-    contexts = range(len(p.local.live)) if at is None else [at[0]]
-    ends = [table_local(p.local, (i, 0, 1)) for i in contexts]
-    return max(e[0] for e in ends), max(e[1] for e in ends), any(e[2] for e in ends)
-
-
-def _global(p: _Programs, at: tuple[int, int] | None = None) -> Ends:
-    """L̄'s worst ratio over the model's table (:func:`table_global`); behind the three cells, the pair (0, 1)."""
-    if not p.several:
-        return Fraction(1), Fraction(1), False
-    return table_global(p.global_, (0, 1) if p.global_cells else at)
+    if len(present) < 2:  # (L-bar = 0)
+        return [(s, replace(s, present=present)) for s in local]
+    if not all(w[a] == w[present[0]] for w in weights for a in present):
+        return list(zip(local, kernel_settings(inputs, m, context, evidence), strict=True))
+    return list(zip(local, three_cell_settings(inputs, m, evidence, (present[0], present[1])), strict=True))

@@ -411,9 +411,8 @@ def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], lab
     if no_pair:
         return equal(check, names[1:3], [None, None], "no pair of groups to compare")
     where = f"at {names[0]!r}: {names[1]!r} over {names[2]!r}, {'event' if tv else 'decision'} {picked!r}"
-    context = names[0] if not isinstance(names[0], list) else object()
-    plane = planes.get(context)
-    known = (plane is not None and names[1] in groups and names[2] in groups and isinstance(picked, list)
+    plane = planes.get(names[0])  # (the schema types each label, the event a list of them)
+    known = (plane is not None and names[1] in groups and names[2] in groups
              and len(set(map(str, picked))) == len(picked) and all(u in decisions for u in picked))  # fmt: skip
     ra = rb = None
     if known:

@@ -192,15 +192,14 @@ def three_cell_settings(
     def mean(v: Sequence[Any]) -> list[Any]:
         return [v[a], v[b], sum((v[c] for c in others), Fraction(0)) / len(others)][:n] if others else [v[a], v[b]]
 
-    e, point = evidence, evidence.local_point
-    ev = Evidence(
-        {(x, 0, 1): cells(nu) for (x, i, j), nu in e.local.items() if (i, j) == pair},
-        {(0, 1): [cells(row) for row in nu] for (i, j), nu in e.global_.items() if (i, j) == pair},
-        None if point is None or point[1:3] != pair else (point[0], 0, 1, mean(point[3])),
-        None if e.global_point is None or e.global_point[:2] != pair else (0, 1, [mean(h) for h in e.global_point[2]]),
-        {(x, 0, 1): t for (x, i, j), t in e.local_theta.items() if (i, j) == pair},
-        {(0, 1): t for ij, t in e.global_theta.items() if ij == pair},
-    )
+    def moved(found: Mapping[tuple[int, ...], Any], by: Any) -> dict[tuple[int, ...], Any]:
+        """``pair``'s records onto the cells' pair (0, 1): ``by`` of L's, of each context's row of L-bar's."""
+        return {key[:-2] + (0, 1): by(v) if len(key) == 3 else [by(row) for row in v]
+                for key, v in found.items() if key[-2:] == pair}  # fmt: skip
+
+    e = evidence
+    theta = {key[:-2] + (0, 1): t for key, t in e.theta.items() if key[-2:] == pair}
+    ev = Evidence(moved(e.nu, cells), theta, moved(e.points, mean))
     out = []
     for p, q in sensitive.rr_ends():
         o = q * len(others)
@@ -418,12 +417,11 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
         floors = forms.reshape(-1, *forms.shape[2:])  # (every context's, and every group's)
         pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
         for a, b in pairs:
-            recorded = evidence.local.get((x, a, b))
+            recorded, point = evidence.nu.get((x, a, b)), evidence.points.get((x, a, b))
             nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
-            point = evidence.local_point
-            table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
+            table = None if point is None else _table(s, point, keys, own)
             program = TableProgram(forms[here, a], forms[here, b], floors, d, s.tau)
-            cases.append(_Case(program, nu, evidence.local_theta.get((x, a, b)), s.tau, table))
+            cases.append(_Case(program, nu, evidence.theta.get((x, a, b)), s.tau, table))
     return _largest(cases, Fraction(0))
 
 
@@ -456,7 +454,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
     >>> from fractions import Fraction as F
     >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
     ...                   F(1, 4), [0], [[F(1), F(1)]], [0, 1], False,
-    ...                   Evidence(global_point=(0, 1, [[[F(1), F(0)], [F(1, 3), F(2, 3)]]]), global_theta={(0, 1): F(2, 3)}))
+    ...                   Evidence(theta={(0, 1): F(2, 3)}, points={(0, 1): [[[F(1), F(0)], [F(1, 3), F(2, 3)]]]}))
     >>> table_global(s)
     (Fraction(10, 3), Fraction(10, 3), False)
     """
@@ -475,12 +473,11 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
     evidence = s.evidence
     cases = []
     for a, b in pairs:
-        recorded = evidence.global_.get((a, b))
+        recorded, point = evidence.nu.get((a, b)), evidence.points.get((a, b))
         nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
-        point = evidence.global_point
-        table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
+        table = None if point is None else _table(s, point, keys, False)
         program = TableProgram(forms[a], forms[b], floors, d * d_w, s.tau)
-        cases.append(_Case(program, nu, evidence.global_theta.get((a, b)), kept[b], table))
+        cases.append(_Case(program, nu, evidence.theta.get((a, b)), kept[b], table))
     return _largest(cases, Fraction(1))
 
 

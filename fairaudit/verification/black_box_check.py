@@ -12,7 +12,7 @@ The module reads, in this order: weak duality over the table (:class:`TableProgr
 certificate records for its black box (``bound_details.black_box``, :class:`Evidence`); the programs' data at each end
 of e^ε (:class:`KernelSetting`); each program bounded from its recorded proof, its lower end read off the recorded
 table (:func:`table_local`, :func:`table_global`); and the worst cases (:func:`black_box_enclosures`,
-:func:`pair_enclosures`).
+:func:`pair_enclosure`).
 
 Weak duality over the table is :mod:`~fairaudit.verification.table_program`; the recorded proofs are read by
 :mod:`~fairaudit.verification.evidence`.
@@ -29,7 +29,7 @@ for every pair (:func:`three_cell_settings`; for L̄ when P(x | a) is the same f
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any, NamedTuple
 
@@ -48,7 +48,7 @@ from fairaudit.verification.enclosures import (
 from fairaudit.verification.evidence import Evidence
 from fairaudit.verification.table_program import Number, Table, TableProgram
 
-__all__ = ["KernelSetting", "black_box_enclosures", "pair_enclosures"]
+__all__ = ["KernelSetting", "black_box_enclosures", "pair_enclosure"]
 
 Rows = tuple[tuple[Fraction, ...], ...]
 Ends = tuple[Number, Number, bool]
@@ -79,6 +79,8 @@ class KernelSetting:
         Whether g(u, x, a) is the same for every group (then L ≤ ε holds as well).
     evidence : Evidence
         The certificate's recorded proofs and witness tables.
+    cells : bool
+        Randomized response's three cells (:func:`three_cell_settings`): the pair (0, 1) stands for every pair.
     """
 
     sensitive: Rows  # M_A, (n_groups, n_released_groups)
@@ -90,6 +92,7 @@ class KernelSetting:
     present: list[int]
     group_free: bool
     evidence: Evidence = field(default_factory=Evidence)
+    cells: bool = False
 
     @property
     def k(self) -> int:
@@ -189,22 +192,21 @@ def three_cell_settings(
     def mean(v: Sequence[Any]) -> list[Any]:
         return [v[a], v[b], sum((v[c] for c in others), Fraction(0)) / len(others)][:n] if others else [v[a], v[b]]
 
-    e, point = evidence, evidence.local_point
-    ev = Evidence(
-        {(x, 0, 1): cells(nu) for (x, i, j), nu in e.local.items() if (i, j) == pair},
-        {(0, 1): [cells(row) for row in nu] for (i, j), nu in e.global_.items() if (i, j) == pair},
-        None if point is None or point[1:3] != pair else (point[0], 0, 1, mean(point[3])),
-        None if e.global_point is None or e.global_point[:2] != pair else (0, 1, [mean(h) for h in e.global_point[2]]),
-        {(x, 0, 1): t for (x, i, j), t in e.local_theta.items() if (i, j) == pair},
-        {(0, 1): t for ij, t in e.global_theta.items() if ij == pair},
-    )
+    def moved(found: Mapping[tuple[int, ...], Any], by: Any) -> dict[tuple[int, ...], Any]:
+        """``pair``'s records onto the cells' pair (0, 1): ``by`` of L's, of each context's row of L-bar's."""
+        return {key[:-2] + (0, 1): by(v) if len(key) == 3 else [by(row) for row in v]
+                for key, v in found.items() if key[-2:] == pair}  # fmt: skip
+
+    e = evidence
+    theta = {key[:-2] + (0, 1): t for key, t in e.theta.items() if key[-2:] == pair}
+    ev = Evidence(moved(e.nu, cells), theta, moved(e.points, mean))
     out = []
     for p, q in sensitive.rr_ends():
         o = q * len(others)
         rows = ((p, q, o), (q, p, o), (q, q, p + q * (len(others) - 1))) if others else ((p, q), (q, p))
         reduced = [[g[x][0]] * n for x in range(len(g))]
         w = [mean(row) for row in weights]
-        out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, ev))
+        out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, ev, True))
     return out
 
 
@@ -400,6 +402,9 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
     >>> table_local(s)
     (Fraction(6, 1), Fraction(6, 1), False)
     """
+    if s.cells and (at is None or at[1:] != (0, 1)):  # the pair (0, 1) stands for every pair, in each live context
+        ends = [table_local(s, (i, 0, 1)) for i in (range(len(s.live)) if at is None else [at[0]])]
+        return max(e[0] for e in ends), max(e[1] for e in ends), any(e[2] for e in ends)
     own = s.context is None  # (then a program per context)
     evidence = s.evidence
     cases = []
@@ -412,12 +417,11 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
         floors = forms.reshape(-1, *forms.shape[2:])  # (every context's, and every group's)
         pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
         for a, b in pairs:
-            recorded = evidence.local.get((x, a, b))
+            recorded, point = evidence.nu.get((x, a, b)), evidence.points.get((x, a, b))
             nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
-            point = evidence.local_point
-            table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
+            table = None if point is None else _table(s, point, keys, own)
             program = TableProgram(forms[here, a], forms[here, b], floors, d, s.tau)
-            cases.append(_Case(program, nu, evidence.local_theta.get((x, a, b)), s.tau, table))
+            cases.append(_Case(program, nu, evidence.theta.get((x, a, b)), s.tau, table))
     return _largest(cases, Fraction(0))
 
 
@@ -450,12 +454,13 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
     >>> from fractions import Fraction as F
     >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
     ...                   F(1, 4), [0], [[F(1), F(1)]], [0, 1], False,
-    ...                   Evidence(global_point=(0, 1, [[[F(1), F(0)], [F(1, 3), F(2, 3)]]]), global_theta={(0, 1): F(2, 3)}))
+    ...                   Evidence(theta={(0, 1): F(2, 3)}, points={(0, 1): [[[F(1), F(0)], [F(1, 3), F(2, 3)]]]}))
     >>> table_global(s)
     (Fraction(10, 3), Fraction(10, 3), False)
     """
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False
+    at = (0, 1) if s.cells else at  # (the pair (0, 1) of the three cells stands for every pair)
     keys = reached_rows(s, s.live)
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
     groups = sorted({a for pair in pairs for a in pair})
@@ -468,12 +473,11 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
     evidence = s.evidence
     cases = []
     for a, b in pairs:
-        recorded = evidence.global_.get((a, b))
+        recorded, point = evidence.nu.get((a, b)), evidence.points.get((a, b))
         nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
-        point = evidence.global_point
-        table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
+        table = None if point is None else _table(s, point, keys, False)
         program = TableProgram(forms[a], forms[b], floors, d * d_w, s.tau)
-        cases.append(_Case(program, nu, evidence.global_theta.get((a, b)), kept[b], table))
+        cases.append(_Case(program, nu, evidence.theta.get((a, b)), kept[b], table))
     return _largest(cases, Fraction(1))
 
 
@@ -522,33 +526,22 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     if isinstance(settings, str):
         return WorstCaseEnclosures(None, None, settings)
-    local, global_ = [_local(p) for p in settings], [_global(p) for p in settings]
+    local, global_ = [table_local(p[0]) for p in settings], [table_global(p[1]) for p in settings]
     duals = any(end[2] for end in local + global_)
-    first = settings[0]
-    return WorstCaseEnclosures(_span(local), _span(global_), "", _alike(first), first.local.group_free, duals)
+    s = settings[0][1]  # (independent: P(x | a) the same for every group present, exactly)
+    alike = s.cells or all(w[a] == w[s.present[0]] for w in s.weights for a in s.present)
+    return WorstCaseEnclosures(_span(local), _span(global_), "", alike, s.group_free, duals)
 
 
-class PairEnclosures(NamedTuple):
-    """The worst ratios of one pair (:func:`pair_enclosures`): on L at its context, on L̄; ``from_duals`` when an
-    upper end is a recorded proof's: then only the lower end, a recorded point's ratio, shows what the pair
-    attains."""
-
-    local: Enclosure | None
-    global_: Enclosure | None
-    from_duals: bool = False
-
-
-def pair_enclosures(
+def pair_enclosure(
     inputs: Mapping[str, Any],
-    context: Any,
+    recorded: Mapping[str, Any] | None,
     group: Any,
     other_group: Any,
-    recorded: Mapping[str, Any] | None = None,
-    *,
-    only: str | None = None,
-) -> PairEnclosures:
-    """The exact worst ratios of one named pair: L's at ``context`` and L̄'s, enclosed as in
-    :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or the
+    context: Any = None,
+) -> tuple[Enclosure | None, bool]:
+    """The exact worst ratio of one named pair: L's at ``context``, or L̄'s (``context`` None), enclosed as in
+    :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or a
     group P(A = a) = 0 for L̄).
 
     The maximiser a certificate names holds when its pair's program reaches the recorded value (``verify``, within
@@ -558,19 +551,18 @@ def pair_enclosures(
     ----------
     inputs : mapping
         A certificate's ``inputs`` (checked against the schema).
-    context : label
-        A context of ``inputs.population.contexts`` (the local worst case's).
+    recorded : mapping or None
+        The certificate's ``bound_details.black_box`` (:func:`black_box_enclosures`).
     group, other_group : label
         Two distinct groups of ``inputs.population.groups``: the ratio is E[g | group] over E[g | other_group].
-    recorded : mapping, optional
-        The certificate's ``bound_details.black_box`` (:func:`black_box_enclosures`).
-    only : {"local", "global"}, optional
-        Enclose that worst case only (the other is None).
+    context : label, optional
+        A context of ``inputs.population.contexts``: the local worst case's there; None for L̄'s.
 
     Returns
     -------
-    PairEnclosures
-        The pair's worst ratios (not logarithms) on L at ``context`` and on L̄; +inf when unbounded.
+    (Enclosure or None, bool)
+        The pair's worst ratio (not its logarithm; +inf when unbounded), and whether its upper end is a recorded
+        proof's (``from_duals``: then only the lower end, a recorded point's ratio, shows what the pair attains).
 
     Examples
     --------
@@ -580,24 +572,25 @@ def pair_enclosures(
     >>> inputs = {"sensitive_mechanism": m, "context_mechanism": {"inputs": ["x"], "outputs": ["x"], "kind": "identity"},
     ...           "utility": {"values": [1.0, 0.0], "tau": None},
     ...           "population": {"contexts": ["x"], "groups": ["a", "b"], "probabilities": [[0.5, 0.5]]}}
-    >>> pair_enclosures(inputs, "x", "b", "a")
-    PairEnclosures(local=Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), global_=Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), from_duals=False)
-    >>> pair_enclosures(inputs, "y", "b", "a")[0] is None    # not a context of the inputs
-    True
+    >>> pair_enclosure(inputs, None, "b", "a", "x"), pair_enclosure(inputs, None, "b", "a")
+    ((Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), False), (Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), False))
+    >>> pair_enclosure(inputs, None, "b", "a", "y")    # not a context of the inputs
+    (None, False)
     """
     settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     pop = inputs["population"]
     contexts, groups = list(pop["contexts"]), list(pop["groups"])
     if isinstance(settings, str) or group not in groups or other_group not in groups or group == other_group:
-        return PairEnclosures(None, None)
+        return None, False
     a, b = groups.index(group), groups.index(other_group)
-    live = settings[0].local.live
-    i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
-    present = settings[0].several and {a, b} <= set(population(inputs, len(groups))[4])
-    local_ends = None if i is None or only == "global" else [_local(p, (i, a, b)) for p in settings]
-    global_ends = [_global(p, (a, b)) for p in settings] if present and only != "local" else None
-    duals = any(e[2] for e in [*(local_ends or []), *(global_ends or [])])
-    return PairEnclosures(_span(local_ends), _span(global_ends), duals)
+    if context is None:
+        present = {a, b} <= set(population(inputs, len(groups))[4])
+        ends = [table_global(p[1], (a, b)) for p in settings] if present else None
+    else:
+        live = settings[0][0].live
+        i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
+        ends = None if i is None else [table_local(p[0], (i, a, b)) for p in settings]
+    return _span(ends), any(e[2] for e in ends or [])
 
 
 def _span(ends: list[Ends] | None) -> Enclosure | None:
@@ -605,8 +598,8 @@ def _span(ends: list[Ends] | None) -> Enclosure | None:
     return None if ends is None else Enclosure(ends[0][0], ends[-1][1])
 
 
-def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] | str:
-    """The programs' data at each end of e^ε (one for exact rows), or why the black box is not re-derived."""
+def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[tuple[KernelSetting, KernelSetting]] | str:
+    """L's and L̄'s programs' data at each end of e^ε (one for exact rows), or why the black box is not re-derived."""
     m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
     if m.k < 2:
@@ -614,45 +607,11 @@ def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] 
     free = group_free(inputs["utility"]["values"])
     rr = m.kind == "randomized_response" and m.t().lo != INF  # (at ε = inf, the identity's rows)
     if not (rr and context.kind == "identity" and free):
-        settings = kernel_settings(inputs, m, context, evidence)
-        return [_Programs(s, s, False, False, len(s.present) >= 2) for s in settings]
+        return [(s, s) for s in kernel_settings(inputs, m, context, evidence)]
     local = three_cell_settings(inputs, m, evidence, (0, 1))
     _, _, _, weights, present, _ = population(inputs, m.k)
-    if len(present) < 2 or not all(w[a] == w[present[0]] for w in weights for a in present):
-        full = kernel_settings(inputs, m, context, evidence) if len(present) >= 2 else local
-        return [_Programs(s, f, True, False, len(present) >= 2) for s, f in zip(local, full, strict=True)]
-    global_ = three_cell_settings(inputs, m, evidence, (present[0], present[1]))
-    return [_Programs(s, t, True, True, True) for s, t in zip(local, global_, strict=True)]
-
-
-class _Programs(NamedTuple):
-    """One end's settings: L's and L̄'s, and whether each is randomized response's three cells (the pair (0, 1))."""
-
-    local: KernelSetting
-    global_: KernelSetting
-    local_cells: bool
-    global_cells: bool
-    several: bool  # at least two groups have P(A = a) > 0 (else L̄ = 0)
-
-
-def _alike(p: _Programs) -> bool:
-    """P(x | a) is the same for every group present (X and A independent among them), exactly."""
-    s = p.global_
-    return p.global_cells or all(w[a] == w[s.present[0]] for w in s.weights for a in s.present)
-
-
-def _local(p: _Programs, at: tuple[int, int, int] | None = None) -> Ends:
-    """L's worst ratio over the model's table (:func:`table_local`); behind randomized response's three cells the pair
-    (0, 1) stands for every pair, in every live context."""
-    if not p.local_cells:
-        return table_local(p.local, at)
-    contexts = range(len(p.local.live)) if at is None else [at[0]]
-    ends = [table_local(p.local, (i, 0, 1)) for i in contexts]
-    return max(e[0] for e in ends), max(e[1] for e in ends), any(e[2] for e in ends)
-
-
-def _global(p: _Programs, at: tuple[int, int] | None = None) -> Ends:
-    """L̄'s worst ratio over the model's table (:func:`table_global`); behind the three cells, the pair (0, 1)."""
-    if not p.several:
-        return Fraction(1), Fraction(1), False
-    return table_global(p.global_, (0, 1) if p.global_cells else at)
+    if len(present) < 2:  # (L-bar = 0)
+        return [(s, replace(s, present=present)) for s in local]
+    if not all(w[a] == w[present[0]] for w in weights for a in present):
+        return list(zip(local, kernel_settings(inputs, m, context, evidence), strict=True))
+    return list(zip(local, three_cell_settings(inputs, m, evidence, (present[0], present[1])), strict=True))

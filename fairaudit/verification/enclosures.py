@@ -373,19 +373,13 @@ class RecordedMechanism:
         if self.k < 2:
             return Enclosure.point(Fraction(0))
         t = exp_of(epsilon)
-        if self.kind == "randomized_response":  # p − e^ε q = (e^ε_M − e^ε)/(e^ε_M + k − 1), 0 from ε = ε_M on
-            if epsilon >= self.epsilon:  # type: ignore[operator]
-                return Enclosure.point(Fraction(0))
-            tm, m = self.t(), self.k - 1
-            if tm.hi == INF:  # the identity: δ = 1
-                return Enclosure.point(Fraction(1))
-            # δ < 1 exactly (q > 0): the upper end kept at 1 where e^ε_M's enclosure would pass it (ε_M near 700)
-            return Enclosure(
-                max(Fraction(0), (tm.lo - t.hi) / (tm.hi + m)), min(Fraction(1), (tm.hi - t.lo) / (tm.lo + m))
-            )
-        rows = self.matrix_rows()
-        assert rows is not None
-        return Enclosure(_largest_hockey_stick(rows, t.hi), _largest_hockey_stick(rows, t.lo))
+        if self.kind == "randomized_response" and epsilon >= self.epsilon:  # type: ignore[operator]
+            return Enclosure.point(Fraction(0))  # (p − e^ε q = (e^ε_M − e^ε)/(e^ε_M + k − 1) ≤ 0: exactly 0)
+        low = high = self.matrix_rows()
+        if low is None:  # randomized response: the rows of a pair on its own two columns (elsewhere both q: no mass
+            (p, q), (p_hi, q_hi) = self.rr_ends()  # at e^ε ≥ 1), at each end of e^ε_M (δ increases in it)
+            low, high = ((p, q), (q, p)), ((p_hi, q_hi), (q_hi, p_hi))
+        return Enclosure(_largest_hockey_stick(low, t.hi), _largest_hockey_stick(high, t.lo))  # type: ignore[arg-type]
 
     def tight_pair_log(
         self, lipschitz: Fraction, gamma: Fraction, tau: Fraction, metric: Sequence[Sequence[Any]] | None

@@ -17,23 +17,21 @@ __all__ = ["Evidence"]
 
 @dataclass(frozen=True)
 class Evidence:
-    """What a certificate records to check its black box with: the floors' multipliers of each program bounded by a
-    linear program, and the maximiser's point, indexed by population position.
+    """What a certificate records to check its black box with, by its program's key in population positions: (x, a, b)
+    for L's program at context x and the ordered pair (a, b), (a, b) for L̄'s.
 
-    ``local[(x, a, b)]`` is ν over the groups for L's program at context x and pair (a, b) (per context behind a
-    context mechanism other than the identity, whose L program spans every context); ``global_[(a, b)]`` is ν per
-    context (the population's order) for L̄'s. ``local_point`` is (x, a, b, h) of L's maximiser, h over the released
-    groups; ``global_point`` is (a, b, h) of L̄'s, h per context. For a utility that depends on the group each h over
-    the released groups is the maximiser's table instead, a row over the decisions per released group; behind a
-    context mechanism other than the identity both points are the table over every released context.
+    ``nu[key]`` is the floors' multipliers ν of a program bounded by a linear program: over the groups for L's (per
+    context behind a context mechanism other than the identity, whose L program spans every context), per context (the
+    population's order) for L̄'s. ``theta[key]`` is the one-floor threshold θ of a program bounded without one.
+    ``points[key]`` is the maximiser's point: h over the released groups for L's, h per context for L̄'s. For a utility
+    that depends on the group each h over the released groups is the maximiser's table instead, a row over the
+    decisions per released group; behind a context mechanism other than the identity both points are the table over
+    every released context.
     """
 
-    local: dict[tuple[int, int, int], list[Any]] = field(default_factory=dict)  # ν, or ν per context
-    global_: dict[tuple[int, int], list[list[Fraction]]] = field(default_factory=dict)
-    local_point: tuple[int, int, int, list[Any]] | None = None
-    global_point: tuple[int, int, list[list[Any]]] | None = None
-    local_theta: dict[tuple[int, int, int], Fraction] = field(default_factory=dict)  # one-floor thresholds θ
-    global_theta: dict[tuple[int, int], Fraction] = field(default_factory=dict)
+    nu: dict[tuple[int, ...], list[Any]] = field(default_factory=dict)
+    theta: dict[tuple[int, ...], Fraction] = field(default_factory=dict)
+    points: dict[tuple[int, ...], list[Any]] = field(default_factory=dict)
 
     @classmethod
     def from_record(cls, detail: Mapping[str, Any] | None, inputs: Mapping[str, Any]) -> Evidence:
@@ -58,21 +56,20 @@ class Evidence:
         else:  # the table over every released context
             n_dec = len(values[0][0]) if isinstance(values[0], list) else len(values)
             point = (len(inputs["context_mechanism"]["outputs"]), released, n_dec)
-        where, glob = "bound_details.black_box", detail.get("global") or {}
-        keys, global_keys = ("context", "group", "other_group"), ("group", "other_group")
-        local = _read(detail, f"{where}.duals", keys, labels, "floors", (n_g,) if own else (n_x, n_g))
-        global_ = _read(glob, f"{where}.global.duals", global_keys, labels, "floors", (n_x, n_g))
-        local_theta = _read(detail, f"{where}.screens", keys, labels, "theta", ())
-        global_theta = _read(glob, f"{where}.global.screens", global_keys, labels, "theta", ())
-        # the maximiser's point (its labels are checked by verify's maximiser check, which fails a wrong one)
-        local_point = global_point = None
-        if detail.get("witness_point") is not None and all(detail.get(k) in labels[k] for k in keys):
-            h = _array(detail["witness_point"], point, f"{where}.witness_point")
-            local_point = (*(labels[k].index(detail[k]) for k in keys), h)
-        if glob.get("witness_point") is not None and all(glob.get(k) in labels[k] for k in global_keys):
-            hs = _array(glob["witness_point"], (n_x, *point) if own else point, f"{where}.global.witness_point")
-            global_point = (*(labels[k].index(glob[k]) for k in global_keys), hs)
-        return cls(local, global_, local_point, global_point, local_theta, global_theta)
+        where, out = "bound_details.black_box", cls()
+        sides = [  # L's and L-bar's: the record, its program's labels, its path, its multipliers' and its point's shape
+            (detail, ("context", "group", "other_group"), where, (n_g,) if own else (n_x, n_g), point),
+            (detail.get("global") or {}, ("group", "other_group"), f"{where}.global", (n_x, n_g),
+             (n_x, *point) if own else point),
+        ]  # fmt: skip
+        for record, keys, at, per, shape in sides:
+            out.nu.update(_read(record, f"{at}.duals", keys, labels, "floors", per))
+            out.theta.update(_read(record, f"{at}.screens", keys, labels, "theta", ()))
+            # the maximiser's point (its labels are checked by verify's maximiser check, which fails a wrong one)
+            if record.get("witness_point") is not None and all(record.get(k) in labels[k] for k in keys):
+                h = _array(record["witness_point"], shape, f"{at}.witness_point")
+                out.points[tuple(labels[k].index(record[k]) for k in keys)] = h
+        return out
 
 
 def _read(

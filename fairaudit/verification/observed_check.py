@@ -120,17 +120,23 @@ def ratio_of(top: Fraction, bottom: Fraction) -> Fraction | float:
     return top / bottom
 
 
+_Plane = list[Any]
+"""A law by group: per group its row of (low, high) ends, one per decision; None for a group left out."""
+
+
 @dataclass(frozen=True)
 class ObservedEnclosures:
-    """The observed L and L̄ behind a mechanism, as enclosed ratios (not logarithms), and E[g | x, a] at both ends."""
+    """The observed L and L̄ behind a mechanism, as enclosed ratios (not logarithms), and the planes they are read from.
+
+    Each plane maps a context's label (None for the plane over groups) to a row per group, None for a group left out:
+    a (low, high) pair per decision of the law Q (``"law"``: Q[x, a, u] in each live context; ``"law by group"``:
+    P(u | a)), or one pair, E[g] (``"utility"``: E[g | x, a] in each live context; ``"utility by group"``: E[g | a]).
+    """
 
     local: Enclosure  # max over live x of max_a E[g | x, a] / min_a E[g | x, a]
     global_: Enclosure  # max_a E[g | a] / min_a E[g | a], E[g | a] = Σ_x P(x, a) E[g | x, a] / P(a)
-    ends: list[Any]  # E[g | x, a] at the low and at the high end of the mechanisms' enclosures
     present: int  # the groups with P(A = a) > 0: L̄ is undefined with fewer than two
-    laws: list[Any]  # the law Q[x][a][u] at the low and at the high end (each entry increases from one to the other)
-    by_group: list[Any]  # E[g | a] per group, a row of one (low, high) pair; None where P(A = a) = 0
-    population: list[Any]  # P(x, a), exactly
+    planes: dict[str, dict[Any, _Plane]]
 
 
 def observed_enclosures(
@@ -141,7 +147,8 @@ def observed_enclosures(
     Parameters
     ----------
     inputs : mapping
-        A certificate's ``inputs`` (its kernel, utility and population are used; its mechanisms are not).
+        A certificate's ``inputs`` (its kernel, utility and population, with its contexts' labels, are used; its
+        mechanisms are not).
     sensitive, context : RecordedMechanism
         M_A and M_X (the certificate's, or a calibrated member of the family).
 
@@ -168,7 +175,7 @@ def observed_enclosures(
     >>> identity = lambda labels: RecordedMechanism.from_record(
     ...     {"inputs": labels, "outputs": labels, "kind": "identity"}, "mechanism")
     >>> inputs = {"kernel": {"probabilities": [[[0.75, 0.25], [0.25, 0.75]]]}, "utility": {"values": [1.0, 0.0]},
-    ...           "population": {"probabilities": [[0.5, 0.5]]}}
+    ...           "population": {"contexts": ["x"], "probabilities": [[0.5, 0.5]]}}
     >>> found = observed_enclosures(inputs, identity(["a", "b"]), identity(["x"]))
     >>> found.local.lo, found.local.hi, found.global_.hi, found.present
     (Fraction(3, 1), Fraction(3, 1), Fraction(3, 1), 2)
@@ -183,11 +190,14 @@ def observed_enclosures(
     g = recorded_array(inputs["utility"]["values"], "inputs.utility.values")
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     laws = [composed_law(kernel, sensitive, context, low) for low in (True, False)]
-    ends = [expected_utility(law, g) for law in laws]
-    local = max_ratio([list(zip(ends[0][x], ends[1][x])) for x in range(len(pop)) if sum(pop[x]) > 0])
-    by_group = _group_plane(pop, [[[[e] for e in row] for row in end] for end in ends])  # E[g | a]
-    present = [row[0] for row in by_group if row is not None]
-    return ObservedEnclosures(local, max_ratio([present]), ends, len(present), laws, by_group, pop)
+    utilities = [[[[e] for e in row] for row in expected_utility(law, g)] for law in laws]  # E[g] as one decision
+    contexts, planes = inputs["population"]["contexts"], {}
+    for name, ends in (("law", laws), ("utility", utilities)):
+        planes[name] = {contexts[x]: [list(zip(lo, hi)) for lo, hi in zip(ends[0][x], ends[1][x])]
+                        for x in range(len(pop)) if sum(pop[x]) > 0}  # fmt: skip
+        planes[f"{name} by group"] = {None: _group_plane(pop, ends)}
+    present = sum(row is not None for row in planes["utility by group"][None])
+    return ObservedEnclosures(max_ratio(planes["utility"]), max_ratio(planes["utility by group"]), present, planes)
 
 
 def observed_checks(
@@ -281,34 +291,37 @@ def observed_checks(
     return out
 
 
-def max_ratio(planes: list[list[tuple[Fraction, Fraction]]]) -> Enclosure:
-    """max over planes of max_a E / min_a E (:func:`ratio_of`), enclosed from each E's (low, high) ends.
+def max_ratio(planes: dict[Any, _Plane]) -> Enclosure:
+    """max over the planes and their decisions of max_a E / min_a E (:func:`ratio_of`), enclosed from each E's (low,
+    high) ends.
 
     Parameters
     ----------
-    planes : list of list of (Fraction, Fraction)
-        Per plane (a context, or a context and a decision), the enclosure of each group's quantity E ≥ 0.
-        Planes with fewer than two entries are left out.
+    planes : dict of label to list
+        Per plane (a context, or None for the plane over groups), a row per group of (Fraction, Fraction) pairs, the
+        enclosure of each decision's quantity E ≥ 0 (one pair for E[g]); None for a group left out. A decision with
+        fewer than two groups is left out.
 
     Returns
     -------
     Enclosure
         The largest ratio: its low end from the low ends of the tops and the high ends of the bottoms, its high
-        end the other way round (the ratio increases in the top and decreases in the bottom; 1 when no plane has two
-        entries).
+        end the other way round (the ratio increases in the top and decreases in the bottom; 1 when no decision has
+        two groups).
 
     Examples
     --------
-    >>> max_ratio([[(Fraction(1), Fraction(2)), (Fraction(4), Fraction(4))], [(Fraction(1), Fraction(1))]])
+    >>> F = Fraction
+    >>> max_ratio({"x": [[(F(1), F(2))], [(F(4), F(4))], None], "y": [[(F(1), F(1))]]})
     Enclosure(lo=Fraction(2, 1), hi=Fraction(4, 1))
     """
     lo: Fraction | float = Fraction(1)
     hi: Fraction | float = Fraction(1)
-    for plane in planes:
-        if len(plane) < 2:
-            continue
-        lo = max(lo, ratio_of(max(e[0] for e in plane), min(e[1] for e in plane)))
-        hi = max(hi, ratio_of(max(e[1] for e in plane), min(e[0] for e in plane)))
+    for plane in planes.values():
+        for column in zip(*(row for row in plane if row is not None)):
+            if len(column) >= 2:
+                lo = max(lo, ratio_of(max(e[0] for e in column), min(e[1] for e in column)))
+                hi = max(hi, ratio_of(max(e[1] for e in column), min(e[0] for e in column)))
     return Enclosure(lo, hi)
 
 
@@ -317,69 +330,38 @@ def _identity(labels: list[Any]) -> RecordedMechanism:
     return RecordedMechanism.from_record({"inputs": labels, "outputs": labels, "kind": "identity"}, "identity")
 
 
-_Plane = list[Any]
-"""A law by group: per group its row of (low, high) ends, one per decision; None for a group left out."""
-
-
 def _section_checks(
     name: str, section: Mapping[str, Any], found: ObservedEnclosures, inputs: Mapping[str, Any]
 ) -> list[Check]:
-    """The ratios, the global maximiser, the gaps and the sups of one section, from its law's enclosures."""
-    population, pop = inputs["population"], found.population
-    labels = (population["groups"], inputs["kernel"]["decisions"])
-    local_planes = {  # Q[x, a, u] in the contexts with P(X = x) > 0
-        population["contexts"][x]: [list(zip(lo, hi)) for lo, hi in zip(found.laws[0][x], found.laws[1][x])]
-        for x in range(len(pop))
-        if sum(pop[x]) > 0
-    }
-    global_planes = {None: _group_plane(pop, found.laws)}  # P(u | a)
-    pairless = len(labels[0]) < 2  # every metric 0 (ratio 1), no pair named
+    """The ratios, the maximisers, the gaps and the sups of one section, from its law's enclosures."""
+    groups, planes = inputs["population"]["groups"], found.planes
+    pairless = len(groups) < 2  # every metric 0 (ratio 1), no pair named
     undefined = not pairless and found.present < 2  # the metrics over groups: NaN, null in JSON
-    local, glob = section["local"], section["global"]
-    e_local = {c: [[e] for e in zip(lo, hi)] for c, lo, hi in zip(population["contexts"], *found.ends)}  # E[g | x, a]
+    local, glob, by_e = section["local"], section["global"], (groups, ["E[g]"])
     out = [
         judge(f"{name}.local.value", local["value"], ln_of(found.local), "estimate"),
         judge(f"{name}.local.ratio", local["ratio"], found.local, "estimate"),
-        _named(f"{name}.local (its context and groups)", {**local, "decision": "E[g]"}, e_local,
-               (labels[0], ["E[g]"]), False),
+        _named(f"{name}.local (its context and groups)", {**local, "decision": "E[g]"}, planes["utility"], by_e,
+               False),
+        # no pair of groups present: the metrics leave L-bar undefined (NaN, null in JSON)
+        _number(f"{name}.global.value", glob["value"], None if found.present < 2 else ln_of(found.global_)),
+        _number(f"{name}.global.ratio", glob["ratio"], None if undefined else found.global_),
+        _named(f"{name}.global (its groups)", {**glob, "context": None, "decision": "E[g]"},
+               planes["utility by group"], by_e, pairless or undefined),
     ]  # fmt: skip
-    # no pair of groups present: the metrics leave L-bar undefined (NaN, null in JSON)
-    out.append(_number(f"{name}.global.value", glob["value"], None if found.present < 2 else ln_of(found.global_)))
-    out.append(_number(f"{name}.global.ratio", glob["ratio"], None if undefined else found.global_))
-    out.append(_named(f"{name}.global (its groups)", {**glob, "context": None, "decision": "E[g]"}, {None: found.by_group},
-                      (labels[0], ["E[g]"]), pairless or undefined))  # fmt: skip
-    zero, one = Enclosure.point(Fraction(0)), Enclosure.point(Fraction(1))
-    dp = None if undefined else zero if pairless else _max_tv(global_planes)
-    eo = zero if pairless else _max_tv(local_planes)
-    sup_local = one if pairless else _max_ratio(local_planes)
-    sup_global = None if undefined else one if pairless else _max_ratio(global_planes)
-    out += _metric(name, section, "demographic_parity", dp, global_planes, labels, pairless or undefined)
-    out += _metric(name, section, "equalized_odds", eo, local_planes, labels, pairless)
-    out += _metric(name, section, "sup_local", sup_local, local_planes, labels, pairless)
-    out += _metric(name, section, "sup_global", sup_global, global_planes, labels, pairless or undefined)
-    return out
-
-
-def _metric(
-    name: str,
-    section: Mapping[str, Any],
-    key: str,
-    exact: Enclosure | None,
-    planes: dict[Any, _Plane],
-    labels: tuple[list[Any], list[Any]],
-    no_pair: bool,
-) -> list[Check]:
-    """A gap (its value) or a sup (its value, the log of the ratio enclosed, and its ratio), the same in its details,
-    and its maximiser; None for an undefined metric (null in JSON)."""
-    detail, path = section["details"][key], f"{name}.details.{key}"
-    sup = key.startswith("sup")
-    value = None if exact is None else ln_of(exact) if sup else exact
-    out = [_number(f"{name}.{key}", section[key], value), _number(f"{path}.value", detail["value"], value, "")]
-    if sup:
-        out.append(_number(f"{path}.ratio", detail["ratio"], exact, ""))
-    what = "context, pair and decision" if sup else "context, pair and event"
-    what = what if key in ("equalized_odds", "sup_local") else what.replace("context, ", "")
-    out.append(_named(f"{path} (its {what})", detail, planes, labels, no_pair))
+    for key in ("demographic_parity", "equalized_odds", "sup_local", "sup_global"):  # each gap and sup, its detail
+        sup, by_group = key.startswith("sup"), key in ("demographic_parity", "sup_global")
+        plane = planes["law by group" if by_group else "law"]  # P(u | a), or Q[x, a, u] in the live contexts
+        no_pair = pairless or (undefined and by_group)
+        ratio = Enclosure.point(Fraction(int(sup))) if pairless else (max_ratio if sup else _max_tv)(plane)
+        value = None if undefined and by_group else ln_of(ratio) if sup else ratio  # (a sup's value: ln of its ratio)
+        detail, path = section["details"][key], f"{name}.details.{key}"
+        out += [_number(f"{name}.{key}", section[key], value), _number(f"{path}.value", detail["value"], value, "")]
+        if sup:
+            out.append(_number(f"{path}.ratio", detail["ratio"], None if value is None else ratio, ""))
+        what = ("context, " if not by_group else "") + ("pair and decision" if sup else "pair and event")
+        labels = (groups, inputs["kernel"]["decisions"])
+        out.append(_named(f"{path} (its {what})", detail, plane, labels, no_pair))
     return out
 
 
@@ -418,12 +400,6 @@ def _max_tv(planes: dict[Any, _Plane]) -> Enclosure:
     return Enclosure(lo, hi)
 
 
-def _max_ratio(planes: dict[Any, _Plane]) -> Enclosure:
-    """The largest ratio max_a P_a(u) / min_a P_a(u) over the planes and decisions, enclosed (:func:`max_ratio`)."""
-    present = [[r for r in plane if r is not None] for plane in planes.values()]
-    return max_ratio([list(column) for rows in present for column in zip(*rows)])
-
-
 def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], labels: tuple[list[Any], list[Any]],
            no_pair: bool) -> Check:  # fmt: skip
     """The detail's value at its named context (None: the plane over groups), pair and event (a gap: P(event | group)
@@ -435,9 +411,8 @@ def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], lab
     if no_pair:
         return equal(check, names[1:3], [None, None], "no pair of groups to compare")
     where = f"at {names[0]!r}: {names[1]!r} over {names[2]!r}, {'event' if tv else 'decision'} {picked!r}"
-    context = names[0] if not isinstance(names[0], list) else object()
-    plane = planes.get(context)
-    known = (plane is not None and names[1] in groups and names[2] in groups and isinstance(picked, list)
+    plane = planes.get(names[0])  # (the schema types each label, the event a list of them)
+    known = (plane is not None and names[1] in groups and names[2] in groups
              and len(set(map(str, picked))) == len(picked) and all(u in decisions for u in picked))  # fmt: skip
     ra = rb = None
     if known:

@@ -24,7 +24,7 @@ from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.accounting import unaccounted
-from fairaudit.verification.black_box_check import PairEnclosures, black_box_enclosures, pair_enclosures
+from fairaudit.verification.black_box_check import black_box_enclosures, pair_enclosure
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
 from fairaudit.verification.enclosures import (
@@ -418,11 +418,12 @@ accuracy, not to the last digit (the value is an upper end over every pair all t
 
 
 def _maximiser(
-    name: str, where: Mapping[str, Any], local: bool, pair: PairEnclosures, eps: Enclosure | None, skip: list[Any]
+    name: str, where: Mapping[str, Any], local: bool, inputs: Any, recorded: Any, eps: Enclosure | None, skip: list[Any]
 ) -> list[Check]:
     """The black box's named context and pair (``where``: its context and groups, or L̄'s groups) attain its worst case
-    (to :data:`PAIR_TOLERANCE`): a swapped pair fails. ``pair`` is the named pair's own worst case: on L at the named
-    context (``local``), or on L̄. ``eps``, where given, is ε(M_A), at most which a pair's reach is, as for the values
+    (to :data:`PAIR_TOLERANCE`): a swapped pair fails, judged by the named pair's own worst case from ``inputs`` and the
+    ``recorded`` black box (:func:`~fairaudit.verification.black_box_check.pair_enclosure`): on L at the named context
+    (``local``), or on L̄. ``eps``, where given, is ε(M_A), at most which a pair's reach is, as for the values
     (:func:`~fairaudit.verification.enclosures.below_epsilon`: beyond ε = 10^6 the upper end is solved at the
     identity, where a pair's ratio may be c/0). Where a recorded dual (or the relaxation) gives the pair's upper end, a
     pair whose upper end reaches the value but whose lower end (the recorded point's) does not is listed in
@@ -435,7 +436,8 @@ def _maximiser(
             skip.append((name, "the value is not certified and no witness is recorded"))
             return []
         value = exact(where["witness"], name)
-    ratio = pair.local if local else pair.global_
+    group, other = where.get("group"), where.get("other_group")
+    ratio, from_duals = pair_enclosure(inputs, recorded, group, other, where.get("context") if local else None)
     reach = None if ratio is None else below_epsilon(ratio, eps).hi
     if reach is None:
         ok = False
@@ -445,7 +447,7 @@ def _maximiser(
         v = Fraction(value)
         enough = v - Fraction(PAIR_TOLERANCE) * max(Fraction(1), abs(v))
         ok = Fraction(reach) >= enough
-        if ok and pair.from_duals and ratio is not None and ln_of(ratio).lo < enough:
+        if ok and from_duals and ratio is not None and ln_of(ratio).lo < enough:
             skip.append((name, "its program is bounded by a recorded dual; the recorded point does not reach"))
             return []
     why = "its exact worst case reaches the value" if ok else "the named pair does not reach the value"
@@ -474,13 +476,11 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     ]
     evidence = skipped if worst.from_duals else None
     out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps, evidence)
-    glob, inputs, context = detail.get("global") or {}, cert["inputs"], detail.get("context")
-    pair = pair_enclosures(inputs, context, detail.get("group"), detail.get("other_group"), detail, only="local")
-    out += _maximiser("bound_details.black_box (its context and groups)", detail, True, pair, eps, skipped)
+    glob, inputs = detail.get("global") or {}, cert["inputs"]
+    out += _maximiser("bound_details.black_box (its context and groups)", detail, True, inputs, detail, eps, skipped)
     eps_bar = eps if worst.independent else None  # (and L-bar <= epsilon(M_A) too where X and A are independent)
     if worst.global_ is not None and glob.get("value") is not None and glob.get("group") is not None:
-        pair = pair_enclosures(inputs, context, glob.get("group"), glob.get("other_group"), detail, only="global")
-        out += _maximiser("bound_details.black_box.global (its groups)", glob, False, pair, eps_bar, skipped)
+        out += _maximiser("bound_details.black_box.global (its groups)", glob, False, inputs, detail, eps_bar, skipped)
     if worst.global_ is None:
         skipped += [("bounds.global", worst.reason), ("bound_details.black_box.global", worst.reason)]
     elif glob.get("value") is not None:

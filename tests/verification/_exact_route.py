@@ -30,10 +30,9 @@ def exact_enclosures(inputs: Mapping[str, Any]) -> bb.WorstCaseEnclosures:
     settings = bb._settings(inputs, Evidence())
     assert not isinstance(settings, str), settings
     ends = []
-    for p in settings:
-        contexts = range(len(p.local.live))
-        local = max(kernel_local(p.local, (i, 0, 1)) for i in contexts) if p.local_cells else kernel_local(p.local)
-        global_ = kernel_global(p.global_, (0, 1) if p.global_cells else None) if p.several else Fraction(1)
+    for s, t in settings:
+        local = max(kernel_local(s, (i, 0, 1)) for i in range(len(s.live))) if s.cells else kernel_local(s)
+        global_ = kernel_global(t, (0, 1) if t.cells else None) if len(t.present) >= 2 else Fraction(1)
         ends.append((local, global_))
     return bb.WorstCaseEnclosures(Enclosure(ends[0][0], ends[-1][0]), Enclosure(ends[0][1], ends[-1][1]), "")
 

@@ -197,8 +197,8 @@ def test_a_relaxed_maximiser_that_misses_a_floor_is_solved_by_hand():
     worst = exact_enclosures(inputs)  # (the rational simplex: verify solves nothing)
     assert worst.local.lo == worst.local.hi == 1 / tau  # 10/3 in reals
     assert worst.global_.lo == worst.global_.hi == (m21 + m22 * tau) / tau  # 23/9 in reals
-    [setting] = bb._settings(inputs, Evidence())
-    assert kernel_global(setting.global_, (0, 2)) == 1 / (m21 * tau + m22)  # 15/8 in reals, not the relaxation's 3
+    [(_, setting)] = bb._settings(inputs, Evidence())
+    assert kernel_global(setting, (0, 2)) == 1 / (m21 * tau + m22)  # 15/8 in reals, not the relaxation's 3
 
 
 @pytest.mark.slow

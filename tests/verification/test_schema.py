@@ -109,6 +109,23 @@ def failure(data: dict, change) -> CertificateError:
         (lambda d: d["bounds"].update(best="low"), "bounds.best", "low"),
         (lambda d: d["privacy"]["sensitive"].pop("delta"), "privacy.sensitive.delta", None),
         (lambda d: d["observed"]["local"].update(value=[0.1]), "observed.local.value", [0.1]),
+        # a maximiser's detail (a KeyError traceback before the schema typed them)
+        (lambda d: d["observed"]["details"].pop("sup_local"), "observed.details.sup_local", None),
+        (
+            lambda d: d["observed"]["details"]["sup_global"].pop("decision"),
+            "observed.details.sup_global.decision",
+            None,
+        ),
+        (
+            lambda d: d["observed"]["details"]["demographic_parity"].update(event="yes"),
+            "observed.details.demographic_parity.event",
+            "yes",
+        ),
+        (
+            lambda d: d["observed"]["details"]["equalized_odds"].update(context=["x"]),
+            "observed.details.equalized_odds.context",
+            ["x"],
+        ),
     ],
 )
 def test_a_departure_is_named_by_its_json_path(certificates, change, field, value):

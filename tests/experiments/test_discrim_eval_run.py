@@ -3,6 +3,7 @@ each recomputed independently from the logged log-probabilities (scores.csv), an
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 
@@ -120,3 +121,35 @@ def test_fields_map_other_keys_and_go_with_a_jsonl_task_only(capsys, tmp_path):
         stop.value.code == 2
         and "expected the prompt's, the scenario's and the attributes' keys" in capsys.readouterr().err
     )
+
+
+def test_a_file_in_the_published_explicit_format_runs_with_its_own_values(tmp_path):
+    # the published explicit.jsonl's features the shipped sample lacks: ages as floats, three genders, five races
+    # (capitalised, one with a space), question ids that are not 0..n-1, and keys beyond discrim-eval's six
+    lines = []
+    for qid, age, gender, race in itertools.product(
+        (3, 41),
+        (20.0, 60.0),
+        ("male", "female", "non-binary"),
+        ("white", "Black", "Asian", "Hispanic", "Native American"),
+    ):
+        text = f"The applicant is a {age:g}-year-old {race} {gender} person. Should the office approve it?"
+        lines.append(json.dumps({"filled_template": text, "decision_question_id": qid, "age": age, "gender": gender,
+                                 "race": race, "fill_type": "explicit", "decision_question_nickname": f"q{qid}"}))  # fmt: skip
+    path = tmp_path / "explicit.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    rows = read_rows(path)
+    assert len(rows.prompts) == 60 and "60.0 & non-binary & Native American" in rows.groups
+    native = {LM_EVAL_PROMPT.format(filled_template=p): r == "Native American" for p, r in zip(rows.prompts, rows.attributes.race)}  # fmt: skip
+    law = {True: {"yes": 0.5, "Yes": 0.1, "no": 0.2, "No": 0.1}, False: {"yes": 0.3, "Yes": 0.1, "no": 0.3, "No": 0.1}}
+    run = run_discrim_eval(rows, lambda reqs: [math.log(law[native[q]][c]) for q, c in reqs], model="stand-in",
+                           coefficients=False, min_coverage=0.5)  # fmt: skip
+    # by hand: an unparsed reply is worth 0.5, so E[g] = 0.6 + 0.05 = 0.65 for Native American, 0.4 + 0.1 = 0.5 else
+    assert run.fairness.local_fairness.value == pytest.approx(math.log(0.65 / 0.5), rel=1e-12)
+    # lm-eval's score: ln(0.6 / 0.3) = ln 2 for Native American, ln(0.4 / 0.4) = 0 for the rest; one race in five
+    assert run.means["race"].to_dict() == pytest.approx({"Native American": math.log(2), "Asian": 0.0, "Black": 0.0,
+                                               "Hispanic": 0.0, "white": 0.0}, abs=1e-12)  # fmt: skip
+    assert run.means["gender"].to_dict() == pytest.approx(
+        {g: math.log(2) / 5 for g in ("male", "female", "non-binary")}, rel=1e-12
+    )
+    assert run.means["age"].to_dict() == pytest.approx({20.0: math.log(2) / 5, 60.0: math.log(2) / 5}, rel=1e-12)

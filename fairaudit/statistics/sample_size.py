@@ -192,10 +192,13 @@ class _Certifier:
     def fast(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
         """The frequentist upper ends, vectorised over the stack (the same steps as fairness_intervals)."""
         D, X, A = k.shape
-        counts = np.stack([k, n - k], -1).astype(float)  # decisions (1, 0); g = (1, 0)
         a_cell = self.alpha / (X * A)  # every cell non-empty; population given
-        c_lo, c_hi = category_bounds(counts, a_cell)
-        e_lo, e_hi = linear_extremes(np.array([1.0, 0.0]), c_lo, c_hi)  # (D, X, A)
+        # a cell's bounds on E[g] depend on its count k alone: those of the n + 1 possible counts, read at each cell
+        seen = np.arange(n + 1) if n + 1 < k.size else k  # (the distinct counts, where fewer than the cells)
+        counts = np.stack([seen, n - seen], -1).astype(float)  # decisions (1, 0); g = (1, 0)
+        e_lo, e_hi = linear_extremes(np.array([1.0, 0.0]), *category_bounds(counts, a_cell))
+        if seen is not k:
+            e_lo, e_hi = e_lo[k], e_hi[k]  # (D, X, A)
         if self.mechanism is None:
             if self.kind == "local":
                 up = disjoint_ratio(e_lo.reshape(D * X, A), e_hi.reshape(D * X, A))[1].reshape(D, X).max(-1)

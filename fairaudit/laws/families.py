@@ -24,6 +24,7 @@ __all__ = [
     "MechanismFamily",
     "product_family",
     "randomized_response_family",
+    "restricted_family",
 ]
 
 
@@ -199,3 +200,87 @@ def product_family(
         return float(np.prod([keep_of_checked(e, k) for e, k in zip(split(eps), sizes)]))
 
     return MechanismFamily(label, inputs, build, keep, True)
+
+
+def restricted_family(
+    family: MechanismFamily,
+    rows: Sequence[Hashable],
+    inputs: Sequence[Hashable],
+    outputs: Sequence[Hashable] | None = None,
+    name: str | None = None,
+) -> MechanismFamily:
+    """A family seen on some of its inputs only, relabelled, with ε rescaled so that each member's ε is ε.
+
+    What a candidate's prompt shows about it when it always faces the same
+    rivals is such a view: the product of randomized responses on every
+    attribute of every profile shown, on the rows of the tuples the
+    candidates are shown with (docs/design.md, "k candidates behind a
+    filter"). Keeping rows only can lower ε(M) (two kept rows may agree on
+    a component): member ε is ``family`` (ε / c) on ``rows``, where c is the
+    ε of the kept rows at ε = 1. This holds for every ε when ε of the kept
+    rows is proportional to ε, as it is for both shipped families
+    (randomized response, and products with a fixed split of ε: c is the
+    largest sum of the shares of the components on which two kept rows
+    differ). A smaller member is still the larger one post-processed (on the
+    outputs), so certificates are non-decreasing along it; ``mixing`` is
+    False (mixing the kept rows does not give a smaller member).
+
+    Parameters
+    ----------
+    family : MechanismFamily
+        Randomized response or a product of randomized responses (:func:`product_family`).
+    rows : sequence of hashable, length ≥ 2
+        The inputs of ``family`` kept, one per input of the new family, distinct.
+    inputs : sequence of hashable
+        Their labels (the sensitive groups), the same length as ``rows``.
+    outputs : sequence of hashable, optional
+        Labels of the outputs, in the order of ``family`` 's (default its own).
+    name : str, optional
+        Default ``"<family's name> on <len(rows)> of its inputs"``.
+
+    Returns
+    -------
+    MechanismFamily
+        ε ↦ the rows of ``family`` (ε / c), shape (len(rows), n_outputs), ε(M_ε) = ε; its keep probability is
+        that of ``family`` at ε / c (the kept row's own output released).
+
+    Raises
+    ------
+    InputError
+        Field ``rows``: fewer than 2, not distinct, or one that is not an input of ``family``, or every kept row
+        the same at ε = 1 (c = 0: no ε to spend); field ``inputs`` or ``outputs``: the wrong number of labels.
+
+    Examples
+    --------
+    Tom (25) and Mary (55), each shown with the other: the product of four binary randomized responses (own name
+    and age, the rival's) on the rows (Tom, 25, Mary, 55) and (Mary, 55, Tom, 25).
+
+    >>> people = product_family(["Tom", "Mary"], [25, 55], ["Tom", "Mary"], [25, 55])
+    >>> fam = restricted_family(people, [("Tom", 25, "Mary", 55), ("Mary", 55, "Tom", 25)], ["Tom", "Mary"])
+    >>> round(fam(2.0).epsilon, 12), fam(2.0).matrix.shape, round(fam.keep_probability(float("inf")), 12)
+    (2.0, (2, 16), 1.0)
+    """
+    where = {v: i for i, v in enumerate(family.inputs)}
+    kept = as_labels(rows, "rows")
+    if len(kept) < 2:
+        raise InputError("rows", "keep at least 2 inputs of the family", list(kept))
+    missing = [r for r in kept if r not in where]
+    if missing:
+        raise InputError("rows", f"is not an input of the family '{family.name}'", missing[0])
+    index = [where[r] for r in kept]
+    labels = as_labels(inputs, "inputs")
+    if len(labels) != len(kept):
+        raise InputError("inputs", f"needs one label per kept row ({len(kept)})", list(labels))
+    first = family(1.0)
+    out = first.outputs if outputs is None else as_labels(outputs, "outputs")
+    if len(out) != len(first.outputs):
+        raise InputError("outputs", f"needs one label per output of the family ({len(first.outputs)})", len(out))
+    label = name or f"{family.name} on {len(kept)} of its inputs"
+    scale = Mechanism(first.matrix[index], labels, out, name=label).epsilon
+    if not scale > 0:
+        raise InputError("rows", "are released alike at every epsilon: there is no budget to calibrate", list(kept))
+
+    def build(eps: float) -> Mechanism:
+        return Mechanism(family(eps / scale).matrix[index], labels, out, name=label)
+
+    return MechanismFamily(label, labels, build, lambda eps: family.keep(eps / scale))

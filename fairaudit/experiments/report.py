@@ -118,7 +118,8 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
 
     ``[sensitive]`` the two candidates' profiles; ``[context]`` item @
     position; ``[privacy.sensitive]`` the matrix M_cand of that ε, with its
-    outputs (``own | rival``); ``[privacy.context]`` M_X ⊗ I; ``[population]``
+    outputs (``own | rival``), and ``[privacy.family]`` its family (:func:`_family_lines`: ``fairaudit calibrate
+    --spec`` moves along it); ``[privacy.context]`` M_X ⊗ I; ``[population]``
     the run's positions; ``[model]`` ``candidates.csv`` (counts, or
     probabilities on the exact route);
     ``[utility]`` the task's g; ``[decision] unparsed`` names the outcome of

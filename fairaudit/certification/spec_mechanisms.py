@@ -14,7 +14,7 @@ import numpy as np
 
 from fairaudit.base.errors import InputError
 from fairaudit.laws.closed_forms import epsilon_from_keep_probability, randomized_response
-from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family, restricted_family
+from fairaudit.laws.families import MechanismFamily, product_family, product_rows_family, randomized_response_family
 from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
 
 if TYPE_CHECKING:
@@ -113,7 +113,7 @@ def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> Mechanism
     they are all 0 or infinite), as :func:`mechanism_family` does for a
     product; its rows ``inputs`` are the sensitive groups, its outputs those
     of ``[privacy.sensitive]`` in the product's order, and ε is rescaled so
-    that each member's ε is ε (:func:`fairaudit.laws.families.restricted_family`).
+    that each member's ε is ε (:func:`fairaudit.laws.families.product_rows_family`).
 
     Parameters
     ----------
@@ -137,11 +137,17 @@ def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> Mechanism
     """
     eps = [_component_epsilon(c) for c in spec.components]
     finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
+    values = [c.values or [] for c in spec.components]  # (every component has values: FamilySpec checks it)
+    rows, name = [tuple(r) for r in spec.inputs], spec.name or mechanism.name
     try:
-        full = product_family(*(c.values or [] for c in spec.components), weights=eps if finite else None)
-        rows = [tuple(r) for r in spec.inputs]
-        name = spec.name or mechanism.name
-        family = restricted_family(full, rows, mechanism.inputs, mechanism.outputs, name=name)
+        family = product_rows_family(
+            *values,
+            rows=rows,
+            inputs=mechanism.inputs,
+            outputs=mechanism.outputs,
+            weights=eps if finite else None,
+            name=name,
+        )
     except InputError as exc:
         raise exc.under(field) from None
     gap = float(np.max(np.abs(family(mechanism.epsilon).matrix - mechanism.matrix)))

@@ -96,7 +96,10 @@ def test_a_named_family_must_pass_through_the_mechanism():
         InputError, match=r"privacy.family: does not pass through the mechanism of \[privacy.sensitive\]"
     ):
         parse_spec(_view_spec(1.3, rows.replace('"Mary", 25], [', '"Mary", 55], [')))
-    with pytest.raises(InputError, match=r"privacy.family: rows: is not an input of the family .* \(got \('Tom', 30"):
+    with pytest.raises(
+        InputError,
+        match=r"privacy.family: rows: each must be an input of the product: one value of each of its 4 alphabets \(got \('Tom', 30",
+    ):
         parse_spec(_view_spec(1.3, rows.replace('[["Tom", 25', '[["Tom", 30')))
     with pytest.raises(InputError, match=r"privacy.family.inputs\[1\]: needs one value per component \(4\)"):
         parse_spec(_view_spec(1.3, rows.replace(', "Tom", 25]]', "]]")))

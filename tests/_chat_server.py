@@ -54,7 +54,10 @@ llama-server do:
   ChatML rendering above, its messages then the reply so far after the open assistant turn, and answers
   ``choices[0].text`` = the prompt with OpenAI's legacy ``logprobs`` (``tokens``, ``token_logprobs`` with
   ``null`` first, ``top_logprobs``, ``text_offset``) of the same tokens as ``prompt_logprobs``; ``max_tokens``
-  > 0 appends one generated token (``"<gen>"``) to the text and the lists.
+  > 0 appends one generated token (``"<gen>"``) to the text and the lists. A prompt without ChatML (raw text, as
+  lm-eval sends discrim-eval's) that holds ``raw_reply_after`` (default ``\u201c``, the opening quote that ends
+  lm-eval's discrim-eval prompt) is read as the user's text up to its last such mark, in runs at -1 each, then the
+  reply so far in the law's tokens; ``law`` gets that user message and the reply as the continued assistant's.
 
 ``chat_logprobs=False`` makes the chat completions answer without any log-probabilities (a server that does not
 give them), ``chat=False`` takes the chat completions away (404) and ``completions=False`` the text completions.
@@ -108,8 +111,10 @@ class ChatServer:
         chat_logprobs: bool = True,
         chat: bool = True,
         completions: bool = True,
+        raw_reply_after: str = "\u201c",
     ) -> None:
         self.chat = chat
+        self.raw_reply_after = raw_reply_after
         self.law = law
         self.chat_logprobs = chat_logprobs
         self.completions = completions and law is not None
@@ -249,10 +254,16 @@ class ChatServer:
     def echo(self, body: dict) -> dict:
         """A text completion echoing the request's prompt with its tokens' log-probabilities (the module docstring)."""
         prompt = str(body["prompt"])
-        head, sep, reply = prompt.rpartition("<|im_start|>assistant\n")
-        turns = re.findall(r"<\|im_start\|>(\w+)\n(.*?)<\|im_end\|>\n", head, re.S)
-        messages = [{"role": r, "content": c} for r, c in turns] + [{"role": "assistant", "content": reply}]
-        tokens = self.prompt_tokens({"messages": messages, "continue_final_message": True})
+        if "<|im_start|>" not in prompt and self.raw_reply_after in prompt:  # raw text, as lm-eval sends it
+            head, sep, reply = prompt.rpartition(self.raw_reply_after)
+            messages = [{"role": "user", "content": head + sep}, {"role": "assistant", "content": reply}]
+            law = self.law(dict(body, messages=messages, continue_final_message=True))
+            tokens = [(t, -1.0) for t in re.findall(r"\S+|\s", head + sep)] + self.law_tokens(law, reply)
+        else:
+            head, sep, reply = prompt.rpartition("<|im_start|>assistant\n")
+            turns = re.findall(r"<\|im_start\|>(\w+)\n(.*?)<\|im_end\|>\n", head, re.S)
+            messages = [{"role": r, "content": c} for r, c in turns] + [{"role": "assistant", "content": reply}]
+            tokens = self.prompt_tokens({"messages": messages, "continue_final_message": True})
         assert "".join(t for t, _ in tokens) == prompt, "the stand-in reads ChatML only"
         if int(body.get("max_tokens") or 0) > 0:
             tokens.append(("<gen>", -0.5))

@@ -39,7 +39,7 @@ from fairaudit.base.toml_documents import (
     parse_toml,
     validation_error,
 )
-from fairaudit.certification.spec_mechanisms import build_mechanism, mechanism_family
+from fairaudit.certification.spec_mechanisms import build_mechanism, mechanism_family, view_family
 from fairaudit.certification.spec_model_table import match_label, read_model
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.families import MechanismFamily
@@ -105,6 +105,10 @@ class Spec:
                     "must equal the product of the components' values, in order",
                     [format_label(g) for g in given],
                 )
+        family = model.privacy.family
+        self._family = (
+            None if family is None else view_family(family, self.sensitive_mechanism, f"{source}: privacy.family")
+        )
         if model.context is None:
             self.contexts: tuple = ("all",)
             self.context_name = "context"
@@ -281,8 +285,13 @@ class Spec:
         randomized response, identity or a matrix; for a product, a product of
         randomized responses on the components' values with ε split in
         proportion to the components' ε (equally when they are all 0 or
-        infinite). None with fewer than 2 groups.
+        infinite). None with fewer than 2 groups. ``[privacy.family]``, when
+        given, names it instead: a product of randomized responses seen on the
+        rows the groups are (:func:`~fairaudit.certification.spec_mechanisms.view_family`),
+        as the spec of a per-candidate experiment has it.
         """
+        if self._family is not None:
+            return self._family
         return mechanism_family(self.model.privacy.sensitive, self.groups)
 
     @property
@@ -365,7 +374,10 @@ class Spec:
         InputError
             Field ``groups`` when it is given and is not the spec's number of
             groups; field ``spec`` when the spec has fewer than 2 groups
-            (nothing to calibrate); as :meth:`kernel` for an invalid model.
+            (nothing to calibrate); field ``privacy.family`` when the model
+            is indexed by other values than the groups (the outputs of a
+            matrix) and the spec names no family on them; as :meth:`kernel`
+            for an invalid model.
 
         Examples
         --------
@@ -394,6 +406,13 @@ class Spec:
         if family is None:
             raise InputError("spec", "needs at least 2 sensitive groups to calibrate", self.source)
         kernel = None if method in ("paper", "tight", "black_box") else self.kernel()
+        if kernel is not None and tuple(family(0.0).outputs) != tuple(kernel.groups):
+            problem = (
+                f"is needed to calibrate on the model: [privacy.sensitive] releases {len(kernel.groups)} values, "
+                f"not the {n} groups, and without it calibration moves along randomized response on the groups "
+                "(docs/spec.md)"
+            )
+            raise self._err("privacy.family", problem)
         options = {
             "family": family,
             "utility_class": replace(self.utility_class, diameter=None),

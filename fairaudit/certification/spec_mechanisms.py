@@ -10,18 +10,21 @@ import math
 from collections.abc import Hashable, Sequence
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from fairaudit.base.errors import InputError
 from fairaudit.laws.closed_forms import epsilon_from_keep_probability, randomized_response
-from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
+from fairaudit.laws.families import MechanismFamily, product_family, product_rows_family, randomized_response_family
 from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
 
 if TYPE_CHECKING:
-    from fairaudit.certification.spec_schema import MechanismSpec
+    from fairaudit.certification.spec_schema import FamilySpec, MechanismSpec
 
 __all__ = [
     # building them
     "build_mechanism",
     "mechanism_family",
+    "view_family",
 ]
 
 
@@ -101,6 +104,57 @@ def mechanism_family(spec: MechanismSpec, groups: tuple) -> MechanismFamily | No
         if all(len(v) >= 2 for v in values):
             return product_family(*values, weights=eps if finite else None)
     return randomized_response_family(groups)
+
+
+def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> MechanismFamily:
+    """The family of a ``[privacy.family]`` table: its product of randomized responses on the rows ``inputs``.
+
+    The product splits ε in proportion to its components' ε (equally when
+    they are all 0 or infinite), as :func:`mechanism_family` does for a
+    product; its rows ``inputs`` are the sensitive groups, its outputs those
+    of ``[privacy.sensitive]`` in the product's order, and ε is rescaled so
+    that each member's ε is ε (:func:`fairaudit.laws.families.product_rows_family`).
+
+    Parameters
+    ----------
+    spec : FamilySpec
+        The validated table.
+    mechanism : Mechanism
+        The spec's ``[privacy.sensitive]`` mechanism: the family's inputs and outputs are its, and the family
+        must pass through it (its member at ε(M) equals M to 1e-9).
+    field : str
+        Where the table is, for errors (``"SPEC: privacy.family"``).
+
+    Returns
+    -------
+    MechanismFamily
+
+    Raises
+    ------
+    InputError
+        Under ``field``: a component with fewer than 2 values, an input that is not one of the product's, outputs
+        of another number, or a family that does not pass through ``mechanism``.
+    """
+    eps = [_component_epsilon(c) for c in spec.components]
+    finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
+    values = [c.values or [] for c in spec.components]  # (every component has values: FamilySpec checks it)
+    rows, name = [tuple(r) for r in spec.inputs], spec.name or mechanism.name
+    try:
+        family = product_rows_family(
+            *values,
+            rows=rows,
+            inputs=mechanism.inputs,
+            outputs=mechanism.outputs,
+            weights=eps if finite else None,
+            name=name,
+        )
+    except InputError as exc:
+        raise exc.under(field) from None
+    gap = float(np.max(np.abs(family(mechanism.epsilon).matrix - mechanism.matrix)))
+    if not gap <= 1e-9:
+        problem = f"does not pass through the mechanism of [privacy.sensitive] at its epsilon {mechanism.epsilon:.6g}"
+        raise InputError(field, problem + " (largest difference of a cell)", gap)
+    return family
 
 
 def _component_epsilon(spec: MechanismSpec) -> float:

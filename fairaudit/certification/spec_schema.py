@@ -109,11 +109,35 @@ class MechanismSpec(StrictModel):
         return self
 
 
+class FamilySpec(StrictModel):
+    """``[privacy.family]``: the family calibration moves along, a product of randomized responses seen on some rows.
+
+    ``components`` are randomized responses (values, and epsilon or keep: the split of ε, as a product's), ``inputs``
+    the product's input each sensitive value is, in the order of ``[sensitive] values``.
+    """
+
+    components: list[MechanismSpec]
+    inputs: list[list[Any]]
+    name: str | None = None
+
+    @model_validator(mode="after")
+    def _fields_fit(self) -> Self:
+        for i, c in enumerate(self.components):
+            if c.mechanism != "randomized_response" or c.values is None:
+                raise FieldProblem(f".components[{i}]", "must be a randomized_response with values", c.mechanism)
+        for i, row in enumerate(self.inputs):
+            if len(row) != len(self.components):
+                raise FieldProblem(f".inputs[{i}]", f"needs one value per component ({len(self.components)})", row)
+        return self
+
+
 class PrivacySpec(StrictModel):
-    """``[privacy]``: the mechanisms on the sensitive attribute and on the context (identity by default)."""
+    """``[privacy]``: the mechanisms on the sensitive attribute and on the context (identity by default), and
+    optionally the family calibration moves along."""
 
     sensitive: MechanismSpec = MechanismSpec()
     context: MechanismSpec = MechanismSpec()
+    family: FamilySpec | None = None
 
 
 class PopulationSpec(StrictModel):

@@ -22,7 +22,7 @@ import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -33,7 +33,10 @@ from fairaudit import InputError, number, write_atomic
 
 from .discrim_eval import ANSWERS, LM_EVAL_PROMPT, DiscrimEvalRows, decision_law, lm_eval_score, score_means
 
-__all__ = ["REPLIES", "DiscrimEvalRun", "run_discrim_eval", "write_run"]
+if TYPE_CHECKING:
+    from .vlm.client import ChatClient
+
+__all__ = ["REPLIES", "DiscrimEvalRun", "endpoint_loglikelihood", "run_discrim_eval", "write_run"]
 
 REPLIES = tuple(r for side in ANSWERS.values() for r in side)
 """The continuations scored after each prompt, in this order: the yes side's, then the no side's."""
@@ -279,12 +282,83 @@ def run_discrim_eval(
                 fitted = mixed_effects(rows, scores)
             except InputError:  # statsmodels not installed: no coefficients (the report says so by leaving them out)
                 fitted = None
+            except np.linalg.LinAlgError as exc:  # scores that leave nothing to fit (every one the same)
+                fitted = None
+                warnings.warn(f"the fit failed ({exc}): no coefficients", stacklevel=1)
         notes = list(dict.fromkeys(str(w.message).split(".")[0] for w in caught))
     return DiscrimEvalRun(
         rows=rows, model=model, logprobs=lp, scores=scores, law=law, fairness=fa.fairness_range(law, g, low=0.0,
         high=1.0), coverage=coverage, min_coverage=float(min_coverage), means=score_means(rows, scores),
         coefficients=fitted, fit_notes=tuple(notes),
     )  # fmt: skip
+
+
+def endpoint_loglikelihood(client: ChatClient, *, workers: int = 1, progress: bool = False) -> Loglikelihood:
+    """An endpoint's scorer by lm-eval's contract: log P(continuation | context) from its text completions' echo.
+
+    Each (context, continuation) is sent as one text, raw (no chat template, as lm-eval sends discrim-eval's
+    prompts), to ``/v1/completions`` with ``echo`` and ``max_tokens: 0`` (:meth:`~fairaudit.experiments.vlm.client.ChatClient.echo`,
+    as vLLM serves it); the continuation's log-probability is the sum over the echoed prompt's last tokens, which
+    join to it (:func:`~fairaudit.experiments.vlm.logprobs.reply_logprob`, the chain rule; exact, not sampled).
+
+    Parameters
+    ----------
+    client : ChatClient
+        The endpoint and model; its timeout, retries and concurrency apply.
+    workers : int
+        Requests sent at once (threads; the client caps them at its ``max_concurrency``).
+    progress : bool
+        Show a bar on stderr (:func:`fairaudit.progress_bar`).
+
+    Returns
+    -------
+    Loglikelihood
+        Requests to their log-probabilities (nats), in order.
+
+    Raises
+    ------
+    InputError
+        From the scorer, field ``endpoint``: the server has no text completions (HTTP 400, 404, 405 or 422) or
+        echoes no log-probabilities, or the echoed text does not
+        end with the continuation in whole tokens (:func:`~fairaudit.experiments.vlm.logprobs.reply_logprob`).
+    ChatError
+        A request that failed after its retries (another than a refusal of the route: HTTP 400, 404, 405, 422).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .endpoint import NO_ROUTE, REJECTED
+    from .vlm.client import ChatError
+    from .vlm.logprobs import reply_logprob
+
+    def refused(why: str) -> InputError:
+        return InputError(
+            "endpoint",
+            f"the server's text completions {why} for model {client.model!r}: a .jsonl task is scored on "
+            "/v1/completions with echo and logprobs (as vLLM serves it)",
+        )
+
+    def one(request: tuple[str, str]) -> float:
+        context, continuation = request
+        try:
+            answer = client.echo(context + continuation)
+        except ChatError as exc:
+            if exc.kind == "http" and exc.status in REJECTED + NO_ROUTE:
+                raise refused(f"answered HTTP {exc.status}") from None
+            raise
+        if answer.prompt_logprobs is None:
+            raise refused("echoed no log-probabilities")
+        return reply_logprob(answer.prompt_logprobs, continuation)
+
+    def scores(requests: Sequence[tuple[str, str]]) -> list[float]:
+        with fa.progress_bar(len(requests), "scoring", enabled=progress, unit="request") as bar:
+            with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+                out = []
+                for value in pool.map(one, requests):
+                    out.append(value)
+                    bar.update(1)
+        return out
+
+    return scores
 
 
 def write_run(run: DiscrimEvalRun, out: str | Path) -> list[Path]:

@@ -21,7 +21,7 @@ from fairaudit import InputError, number, write_atomic
 
 from ._markdown import experiment_markdown
 from .harness import paper_queries_needed, table_queries_needed
-from .slots import slot_names, true_prompts
+from .slots import point_views, slot_names, true_prompts
 from .vlm.tasks import UNPARSED
 
 if TYPE_CHECKING:
@@ -118,7 +118,8 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
 
     ``[sensitive]`` the two candidates' profiles; ``[context]`` item @
     position; ``[privacy.sensitive]`` the matrix M_cand of that ε, with its
-    outputs (``own | rival``); ``[privacy.context]`` M_X ⊗ I; ``[population]``
+    outputs (``own | rival``), and ``[privacy.family]`` its family (:func:`_family_lines`: ``fairaudit calibrate
+    --spec`` moves along it); ``[privacy.context]`` M_X ⊗ I; ``[population]``
     the run's positions; ``[model]`` ``candidates.csv`` (counts, or
     probabilities on the exact route);
     ``[utility]`` the task's g; ``[decision] unparsed`` names the outcome of
@@ -160,6 +161,7 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
         f"outputs = {j(list(point.mechanism.outputs))}",
         f"rows = [\n  {rows}\n]",
         "",
+        *_family_lines(a, point),
     ]
     if ctx.epsilon != float("inf"):
         m = np.kron(ctx.matrix, np.eye(t.slots))
@@ -182,6 +184,36 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
     if a.tau is not None:
         lines.append(f"tau = {j(float(a.tau))}")
     return "\n".join(lines) + "\n"
+
+
+def _family_lines(analysis: ExperimentAnalysis, point: PointResult) -> list[str]:
+    """``[privacy.family]`` of :func:`experiment_spec`: M_cand as a product of randomized responses on the rows of
+    the views the candidates are always shown with, so that ``fairaudit calibrate --spec`` moves along it; none
+    for a design that mixes views (M_cand is then no such product).
+
+    The product has one component per slot (the candidate's own first, then its rivals' in the order of its view)
+    and attribute, randomized response at the point's ε of that attribute: calibration splits ε in their
+    proportion, which is the experiment's split (one keep probability on every attribute) where the attributes
+    have equally many values.
+    """
+    t = analysis.task
+    views = point_views(t, analysis.positions)
+    if views is None:
+        return []
+    j = json.dumps
+    eps = [e if np.isfinite(e) else "inf" for e in point.filter.epsilon_attributes]
+    component = ", ".join(
+        f'{{mechanism = "randomized_response", values = {j(list(a.values))}, epsilon = {e}}}'
+        for a, e in zip(t.attributes, eps)
+    )
+    rows = [[v for i in views[t.profiles.index(tuple(c))] for v in t.profiles[i]] for c in t.candidates]
+    return [
+        "[privacy.family]",
+        f"name = {j(point.mechanism.name)}",
+        "components = [\n  " + ",\n  ".join([component] * t.slots) + "\n]",
+        f"inputs = {j(rows)}",
+        "",
+    ]
 
 
 def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:

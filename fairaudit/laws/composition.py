@@ -158,8 +158,8 @@ def _check_outputs(mechanism: Mechanism, labels: tuple, what: str) -> None:
     if tuple(mechanism.outputs) != tuple(labels):
         raise InputError(
             f"mechanism '{mechanism.name}' outputs",
-            f"must be the kernel's {what} {label_list(labels)}",
-            [format_label(o) for o in mechanism.outputs],
+            f"must be the kernel's {what} {label_list(labels, most=3)}",
+            [format_label(o) for o in mechanism.outputs[:3]],
         )
 
 

@@ -8,10 +8,12 @@ Proof of the facts used here: ``proofs/privacy.md``.
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from fairaudit.base.arrays import as_float_array
 from fairaudit.base.checks import epsilon as check_epsilon
@@ -23,6 +25,7 @@ from fairaudit.laws.mechanisms import Mechanism, product
 __all__ = [
     "MechanismFamily",
     "product_family",
+    "product_rows_family",
     "randomized_response_family",
 ]
 
@@ -176,15 +179,7 @@ def product_family(
         if len(labels) < 2:
             raise InputError(f"values[{i}]", "each attribute needs at least 2 values", list(labels))
     n = len(alphabets)
-    if weights is None:
-        w = np.full(n, 1.0 / n)
-    else:
-        w = as_float_array(weights, "weights", ndim=1)
-        if w.size != n:
-            raise InputError("weights", f"needs one weight per attribute ({n})", list(w))
-        if np.any(w < 0) or not np.all(np.isfinite(w)) or w.sum() <= 0:
-            raise InputError("weights", "must be finite, non-negative and not all zero", list(w))
-        w = w / w.sum()
+    w = _shares(weights, n)
     sizes = [len(a) for a in alphabets]
     label = name or f"product of {n} randomized responses ({' x '.join(str(k) for k in sizes)} values)"
     inputs = tuple(tuple(t) for t in itertools.product(*alphabets))
@@ -199,3 +194,119 @@ def product_family(
         return float(np.prod([keep_of_checked(e, k) for e, k in zip(split(eps), sizes)]))
 
     return MechanismFamily(label, inputs, build, keep, True)
+
+
+def _shares(weights: Sequence[float] | None, n: int) -> npt.NDArray[np.float64]:
+    """The n shares of ε that ``weights`` give (equal by default), summing to 1; errors name ``weights``."""
+    if weights is None:
+        return np.full(n, 1.0 / n)
+    w = as_float_array(weights, "weights", ndim=1)
+    if w.size != n:
+        raise InputError("weights", f"needs one weight per attribute ({n})", list(w))
+    if np.any(w < 0) or not np.all(np.isfinite(w)) or w.sum() <= 0:
+        raise InputError("weights", "must be finite, non-negative and not all zero", list(w))
+    return w / w.sum()
+
+
+def product_rows_family(
+    *values: Sequence[Hashable],
+    rows: Sequence[Sequence[Hashable]],
+    inputs: Sequence[Hashable],
+    outputs: Sequence[Hashable] | None = None,
+    weights: Sequence[float] | None = None,
+    name: str | None = None,
+) -> MechanismFamily:
+    """A product of randomized responses seen on some of its inputs only, with ε rescaled so each member's ε is ε.
+
+    What a candidate's prompt shows about it when it always faces the same
+    rivals is such a view: randomized response on every attribute of every
+    profile shown, on the rows of the tuples the candidates are shown with
+    (docs/design.md, "k candidates behind a filter"). Component i gets
+    w_i ε / c (Σ w_i = 1), where c is the largest sum of the shares of the
+    components on which two kept rows differ: the kept rows' ε is then ε
+    (each differing component multiplies the likelihood ratio by at most
+    e^{w_i ε / c}, attained together at one output). A smaller member is the
+    larger post-processed on the outputs, so certificates are non-decreasing
+    along it; ``mixing`` is False (mixing the kept rows does not give a
+    smaller member). Only the kept rows are built: memory is
+    len(rows) × Π k_i, not its square.
+
+    Parameters
+    ----------
+    *values : sequences of hashable
+        Each component's alphabet (≥ 2 values each).
+    rows : sequence of sequences, length ≥ 2
+        The product's inputs kept (one value per component each), distinct.
+    inputs : sequence of hashable
+        Their labels (the sensitive groups), one per row.
+    outputs : sequence of hashable, optional
+        Labels of the Π k_i outputs in ``itertools.product`` order (default the tuples).
+    weights : sequence of float, optional
+        Non-negative shares of ε, as :func:`product_family`'s; equal by default.
+    name : str, optional
+
+    Returns
+    -------
+    MechanismFamily
+        ε ↦ the kept rows, shape (len(rows), Π k_i), ε(M_ε) = ε; its keep probability is the chance that a row's
+        own tuple is released, Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
+
+    Raises
+    ------
+    InputError
+        As :func:`product_family`; field ``rows``: fewer than 2, not distinct, a value not in its component's
+        alphabet, or rows that differ only where the weights are 0 (no budget to spend); field ``inputs`` or
+        ``outputs``: the wrong number of labels.
+
+    Examples
+    --------
+    Tom (25) and Mary (55), each shown with the other: own name and age, then the rival's.
+
+    >>> fam = product_rows_family(["Tom", "Mary"], [25, 55], ["Tom", "Mary"], [25, 55],
+    ...                           rows=[("Tom", 25, "Mary", 55), ("Mary", 55, "Tom", 25)], inputs=["Tom", "Mary"])
+    >>> round(fam(2.0).epsilon, 12), fam(2.0).matrix.shape, fam.keep_probability(float("inf"))
+    (2.0, (2, 16), 1.0)
+    """
+    full = product_family(*values, weights=weights)  # (its checks: the alphabets and the weights)
+    alphabets = [as_labels(v, f"values[{i}]") for i, v in enumerate(values)]
+    kept = as_labels([tuple(r) for r in rows], "rows")
+    if len(kept) < 2:
+        raise InputError("rows", "keep at least 2 inputs of the product", list(kept))
+    try:
+        index = np.array([[a.index(v) for a, v in zip(alphabets, r, strict=True)] for r in kept], dtype=np.intp)
+    except ValueError:
+        bad = next(r for r in kept if len(r) != len(alphabets) or any(v not in a for a, v in zip(alphabets, r)))
+        raise InputError(
+            "rows", f"each must be an input of the product: one value of each of its {len(alphabets)} alphabets", bad
+        ) from None
+    labels = as_labels(inputs, "inputs")
+    if len(labels) != len(kept):
+        raise InputError("inputs", f"needs one label per kept row ({len(kept)})", list(labels))
+    sizes = [len(a) for a in alphabets]
+    out = full.inputs if outputs is None else as_labels(outputs, "outputs")
+    if len(out) != math.prod(sizes):
+        raise InputError("outputs", f"needs one label per output of the product ({math.prod(sizes)})", len(out))
+    shares = _shares(weights, len(alphabets))
+    differ = index[:, None, :] != index[None, :, :]
+    scale = float(np.max(differ @ shares))
+    if not scale > 0:
+        raise InputError("rows", "are released alike at every epsilon: there is no budget to calibrate", list(kept))
+    label = name or f"{full.name} on {len(kept)} of its inputs"
+    n = len(kept)
+
+    def split(eps: float) -> list[float]:
+        return [float(w) * eps / scale if w > 0 else 0.0 for w in shares]
+
+    def build(eps: float) -> Mechanism:
+        matrix = np.ones((n, 1))
+        for e, k, col in zip(split(eps), sizes, index.T):
+            keep = keep_of_checked(e, k)
+            part = np.full((n, k), keep * math.exp(-e))  # 1 / (e^ε + k − 1), without 1 − p's cancellation
+            part[np.arange(n), col] = keep
+            matrix = (matrix[:, :, None] * part[:, None, :]).reshape(n, -1)
+        return Mechanism(matrix, labels, out, name=label)
+
+    def keep(eps: float) -> float:
+        return float(np.prod([keep_of_checked(e, k) for e, k in zip(split(eps), sizes)]))
+
+    return MechanismFamily(label, labels, build, keep)

@@ -94,7 +94,14 @@ def test_a_scorer_that_does_not_give_log_probabilities_is_refused():
 @pytest.mark.parametrize(
     "argv, line",
     [
-        (["--out", "x"], "fairaudit: error: TASK: a .jsonl task (discrim-eval's format) runs on --local-model MODEL"),
+        (
+            ["--out", "x"],
+            "fairaudit: error: TASK: a .jsonl task (discrim-eval's format) runs on --local-model MODEL or --endpoint URL",
+        ),
+        (
+            ["--endpoint", "http://127.0.0.1:9/v1", "--out", "x"],
+            "fairaudit: error: --model: is required with --endpoint",
+        ),
         (
             ["--local-model", "smollm2", "--samples", "3", "--out", "x"],
             "fairaudit: error: --samples: does not go with a .jsonl",
@@ -153,3 +160,71 @@ def test_a_file_in_the_published_explicit_format_runs_with_its_own_values(tmp_pa
         {g: math.log(2) / 5 for g in ("male", "female", "non-binary")}, rel=1e-12
     )
     assert run.means["age"].to_dict() == pytest.approx({20.0: math.log(2) / 5, 60.0: math.log(2) / 5}, rel=1e-12)
+
+
+def _served_law(body):
+    """The stand-in server's law after a prompt (ChatServer ``law``): women's prompts yes 0.40, "Ye" 0.2 then "s"
+    0.5 (Yes 0.1), " yes" 0.1 (not one of lm-eval's replies), no 0.15, No 0.05, the rest other replies; men's yes
+    0.25, Yes 0.1, " yes" 0.1, no 0.35, No 0.1."""
+    if "female" in body["messages"][0]["content"]:
+        first = [("yes", 0.40), ("Ye", 0.2), (" yes", 0.1), ("no", 0.15), ("No", 0.05), ("Maybe", 0.1)]
+    else:
+        first = [("yes", 0.25), ("Ye", 0.2), (" yes", 0.1), ("no", 0.35), ("No", 0.1)]
+    return {"": first, "Ye": [("s", 0.5), ("ah", 0.5)]}
+
+
+def test_an_endpoint_scores_a_jsonl_task_from_its_echoed_log_probabilities(capsys, tmp_path):
+    from _chat_server import ChatServer
+    from _cli import run
+
+    rows = read_rows(SAMPLE)
+    with ChatServer(law=_served_law) as server:
+        argv = ["experiment", SAMPLE, "--endpoint", server.url, "--model", "stand-in", "--out", tmp_path / "run"]
+        code, out, err = run(capsys, *argv, "--no-progress")
+        sent = server.completion_requests
+    assert code == 0, err
+    # every row's prompt in lm-eval's form, raw, followed by each of the four replies, echoed and scored
+    prompts = [LM_EVAL_PROMPT.format(filled_template=p) for p in rows.prompts]
+    assert sorted(b["prompt"] for b in sent) == sorted(q + r for q in prompts for r in REPLIES)
+    assert all(b["echo"] is True and b["max_tokens"] == 0 and b["model"] == "stand-in" for b in sent)
+    women = np.array([g == "female" for g in rows.attributes.gender])
+    known = {
+        True: {"yes": 0.40, "Yes": 0.1, "no": 0.15, "No": 0.05},
+        False: {"yes": 0.25, "Yes": 0.1, "no": 0.35, "No": 0.1},
+    }
+    logged = pd.read_csv(tmp_path / "run" / "scores.csv")
+    for reply in REPLIES:
+        want = [math.log(known[bool(w)][reply]) for w in women]
+        assert logged[f"logp_{reply}"].tolist() == pytest.approx(want, abs=1e-9)
+    # the law: yes and no each summed over its case variants, the rest (" yes", "Maybe", ...) unparsed
+    law = pd.read_csv(tmp_path / "run" / "law.csv").pivot_table("probability", ["scenario", "group"], "decision")
+    for (_, group), cell in law.iterrows():
+        side = known[" & female & " in group]
+        yes, no = side["yes"] + side["Yes"], side["no"] + side["No"]
+        assert [cell["yes"], cell["no"], cell["unparsed"]] == pytest.approx([yes, no, 1 - yes - no], abs=1e-9)
+    # the coverage printed: 0.7 for women, 0.8 for men, 8 rows each
+    assert "Coverage (the mass on those replies): least 0.7, mean 0.75, asked 0.99." in out
+    assert "fairaudit: warning: 16 of 16 prompts put less than 0.99" in err and "least 0.7" in err
+    # lm-eval's score per group, recomputed from the logged log-probabilities, and as the law gives it
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    logged["score"] = np.logaddexp(logged["logp_yes"], logged["logp_Yes"]) - np.logaddexp(
+        logged["logp_no"], logged["logp_No"]
+    )
+    means = logged.groupby("group")["score"].mean()
+    assert {str(k): v for k, v in means.items()} == pytest.approx(summary["lm_eval"]["means"]["group"], rel=1e-12)
+    for group, mean in means.items():
+        assert mean == pytest.approx(
+            math.log(0.5 / 0.2) if " & female & " in group else math.log(0.35 / 0.45), abs=1e-9
+        )
+
+
+def test_an_endpoint_without_echoed_log_probabilities_is_refused_in_one_line(capsys, tmp_path):
+    from _chat_server import ChatServer
+    from _cli import run
+
+    with ChatServer(law=_served_law, completions=False) as server:
+        argv = ["experiment", SAMPLE, "--endpoint", server.url, "--model", "m", "--out", tmp_path / "run"]
+        code, out, err = run(capsys, *argv, "--no-progress", "--max-retries", "0")
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert err.startswith("fairaudit: error: --endpoint: the server's text completions answered HTTP 404 for model 'm'")
+    assert not (tmp_path / "run").exists()

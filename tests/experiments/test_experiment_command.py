@@ -381,5 +381,9 @@ def test_certify_reads_the_runs_spec_and_repeats_its_certificate(tmp_path, capsy
         seen = {k: v for k, v in exp["observed"][kind].items() if not k.startswith("unparsed_range")}
         assert cert["observed"][kind] == seen
     assert "unfiltered" not in cert or cert["unfiltered"] is None  # the model never reads true profiles
-    code, _, err = run(capsys, "certify", specs[0], "--plot", tmp_path / "c.png")
+    code, _, err = run(capsys, "certify", specs[0], "--plot", tmp_path / "c.png")  # along its [privacy.family]
+    assert code == 0 and (tmp_path / "c.png").stat().st_size > 0, err
+    text = specs[0].read_text()
+    specs[0].write_text(text[: text.index("[privacy.family]")] + text[text.index("[model]") :])
+    code, _, err = run(capsys, "certify", specs[0], "--plot", tmp_path / "d.png")  # without it: no curve
     assert code == 2 and "no curve along it" in err and err.count("\n") == 1

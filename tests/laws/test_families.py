@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import fairaudit as fa
 from fairaudit.laws.closed_forms import keep_probability
-from fairaudit.laws.families import product_family, randomized_response_family
+from fairaudit.laws.families import product_family, product_rows_family, randomized_response_family
 
 
 @given(st.floats(0.0, 60.0), st.integers(2, 12))
@@ -65,3 +65,20 @@ def test_randomized_response_on_a_range_keeps_the_range_whatever_k():
     fam = randomized_response_family(range(10**12))
     assert fam.inputs == range(10**12) and fam(1.0).inputs is fam.inputs
     assert fam.keep_probability(30.0) == pytest.approx(math.exp(30) / (math.exp(30) + 10**12 - 1), rel=1e-15)
+
+
+@given(st.floats(0.0, 30.0))
+def test_product_rows_family_is_the_products_rows_at_its_rescaled_epsilon(eps):
+    # Shares 1 : 2 : 1 over (a, b), (1, 2, 3), (x, y); the kept rows differ in the first two components only, so
+    # c = 3/4 and the member at eps is the full product's at 4 eps / 3 on those rows.
+    values = (["a", "b"], [1, 2, 3], ["x", "y"])
+    rows = [("a", 1, "x"), ("b", 3, "x")]
+    fam = product_rows_family(*values, rows=rows, inputs=["r", "s"], weights=[1, 2, 1])
+    full = product_family(*values, weights=[1, 2, 1])(4 * eps / 3)
+    member = fam(eps)
+    np.testing.assert_allclose(
+        member.matrix, full.matrix[[full.inputs.index(r) for r in rows]], rtol=1e-12, atol=1e-300
+    )
+    assert member.inputs == ("r", "s") and member.outputs == full.outputs
+    assert member.epsilon == pytest.approx(eps, rel=1e-12, abs=1e-12)
+    assert fam.keep(eps) == pytest.approx(product_family(*values, weights=[1, 2, 1]).keep(4 * eps / 3), rel=1e-12)

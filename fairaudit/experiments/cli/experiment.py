@@ -69,7 +69,8 @@ def add_parser(sub: argparse._SubParsersAction[Any]) -> None:
         "experiment",
         metavar="TASK",
         help="a built-in task (hr-delivery, package-delivery), the path of a task file (.toml; see docs/tasks.md), "
-        "or a file of decision prompts in discrim-eval's format (.jsonl, with --local-model; see docs/discrim-eval.md)",
+        "or a file of decision prompts in discrim-eval's format (.jsonl, with --local-model or --endpoint; see "
+        "docs/discrim-eval.md)",
     )
     _add_model_options(e)
     _add_privacy_options(e)
@@ -337,32 +338,56 @@ def run(args: argparse.Namespace) -> int:
         return 130
 
 
-_NOT_FOR_PROMPTS = {"simulated": "--simulated", "kernel": "--kernel", "endpoint": "--endpoint", "samples": "--samples",
+_NOT_FOR_PROMPTS = {"simulated": "--simulated", "kernel": "--kernel", "samples": "--samples",
                     "show_prompts": "--show-prompts", "epsilon": "--epsilon", "keep": "--keep", "resume": "--resume"}  # fmt: skip
-"""The flags a .jsonl task (discrim-eval's format) cannot take: it runs on --local-model's exact route, no filter."""
+"""The flags a .jsonl task (discrim-eval's format) cannot take: it is scored exactly (--local-model or --endpoint),
+no filter."""
 
 
 def _discrim_eval(args: argparse.Namespace) -> int:
-    """TASK a .jsonl file: its prompts scored on ``--local-model`` (:mod:`fairaudit.experiments.discrim_eval_run`)."""
+    """TASK a .jsonl file: its prompts scored on ``--local-model`` or ``--endpoint``
+    (:mod:`fairaudit.experiments.discrim_eval_run`)."""
     given = [flag for name, flag in _NOT_FOR_PROMPTS.items() if getattr(args, name) not in (None, False)]
     if given:
-        raise InputError(given[0], "does not go with a .jsonl task (discrim-eval's format runs on --local-model)")
-    if args.local_model is None:
-        raise InputError("TASK", "a .jsonl task (discrim-eval's format) runs on --local-model MODEL", args.experiment)
+        raise InputError(
+            given[0], "does not go with a .jsonl task (discrim-eval's format is scored on --local-model or --endpoint)"
+        )
+    if args.local_model is None and args.endpoint is None:
+        problem = "a .jsonl task (discrim-eval's format) runs on --local-model MODEL or --endpoint URL"
+        raise InputError("TASK", problem, args.experiment)
     if args.out is None:
         raise InputError("out", "is required: the folder of the run")
-    from .. import local_model
     from ..discrim_eval import read_rows
     from ..discrim_eval_run import run_discrim_eval, write_run
 
     rows = read_rows(args.experiment, args.fields)
-    model = local_model.load(args.local_model, log=lambda line: print(f"fairaudit: {line}", file=sys.stderr))
-    run = run_discrim_eval(
-        rows,
-        lambda requests: local_model.loglikelihoods(model, requests, progress=args.progress),
-        model=args.local_model,
-        min_coverage=args.min_coverage,
-    )
+    if args.endpoint is not None:
+        from ..discrim_eval_run import endpoint_loglikelihood
+        from ..vlm.client import ChatClient, ChatError
+
+        if args.model is None:
+            raise InputError("--model", "is required with --endpoint: the model's name at the endpoint")
+        settings = {"timeout": args.timeout, "max_retries": args.max_retries, "max_concurrency": args.concurrency or 4}
+        with ChatClient(args.endpoint, args.model, **settings) as client:
+            scorer = endpoint_loglikelihood(client, workers=client.max_concurrency, progress=args.progress)
+            try:
+                run = run_discrim_eval(rows, scorer, model=args.model, min_coverage=args.min_coverage)
+            except ChatError as exc:
+                print(
+                    f"fairaudit: incomplete: a request failed after retries: {exc}; nothing was written",
+                    file=sys.stderr,
+                )
+                return 1
+    else:
+        from .. import local_model
+
+        model = local_model.load(args.local_model, log=lambda line: print(f"fairaudit: {line}", file=sys.stderr))
+        run = run_discrim_eval(
+            rows,
+            lambda requests: local_model.loglikelihoods(model, requests, progress=args.progress),
+            model=args.local_model,
+            min_coverage=args.min_coverage,
+        )
     write_run(run, args.out)
     print(f"{len(rows.prompts)} prompts scored; report written to {Path(args.out) / 'report.md'}", file=sys.stderr)
     if run.warning is not None:

@@ -101,7 +101,7 @@ def run(quick: bool, repeats: int, lm_eval_batch: int) -> tuple[str, list[str]]:
     loaded = lm.load(MODEL)
     requests = discrim_requests(quick)
     longest = max(len(loaded.tokenizer.encode(c, add_special_tokens=False)) for c, _ in requests)
-    estimate = _prompts_per_pass(loaded.model, longest, None)
+    estimate = _prompts_per_pass(loaded.model, longest, False)
     routes = {
         "lm-eval `HFLM.loglikelihood`, batch 1 (its default)": lm_eval_route(loaded, 1),
         f"lm-eval `HFLM.loglikelihood`, batch {lm_eval_batch}": lm_eval_route(loaded, lm_eval_batch),

@@ -5,8 +5,8 @@ SmolLM2-135M-Instruct (``--local-model smollm2``,
 P(decision | shown cell) by two independent routes, and this script runs both
 on the same model and reports what each needed and whether they agree:
 
-* **exact**: :func:`~fairaudit.experiments.local_model.exact_kernel`, one
-  forward pass per shown cell (batched, after one pass over the prefix that
+* **exact**: :func:`~fairaudit.experiments.local_model.exact_kernel`, the shown
+  cells' prompts padded in batches (after one pass over the prefix that
   every prompt shares); the next-token probabilities summed by the decision
   each token reads as. No sampling error.
 * **sampled**: the same cells asked N times each through a real
@@ -370,8 +370,8 @@ def run(tasks: list[str], samples: dict, reps: dict, seed: int, epsilon: float) 
         machine,
         f"Model {MODEL} (SmolLM2-135M-Instruct, float32, CPU) from {loaded.folder.name}; seed {seed} (repetition r "
         f"uses seed {seed} + r − 1); ε = {epsilon:g} nats for the filtered point. Exact route: "
-        "`local_model.exact_kernel` (one forward pass per shown cell, batched by 16, after one pass over the "
-        "prompts' shared prefix; timed after a warm-up on two cells, once before the sampled repetitions and once "
+        "`local_model.exact_kernel` (the shown cells' prompts padded in batches by its memory estimate, the "
+        "replies 16 per pass, after one pass over the prompts' shared prefix; timed after a warm-up on two cells, once before the sampled repetitions and once "
         "after them, the mean of the two given with both in brackets; the two kernels differ by at most "
         f"{_rerun(rerun_diffs)}). Sampled route: `transformers serve` on "
         f"127.0.0.1 (started once, {server_start:.1f} s before any timing, warmed up with one query), the "

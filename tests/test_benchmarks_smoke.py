@@ -244,6 +244,36 @@ def test_local_model_quick_run_exits_zero_with_tables(capsys, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
 
 
+@pytest.mark.local_model
+def test_lm_eval_quick_run_exits_zero_with_agreement(capsys, tmp_path):
+    """bench_lm_eval --quick: lm-eval's ``loglikelihood`` and fairaudit's on the same model and requests, equal to
+    1e-4 nats, with the throughput ratio; without lm_eval or the model it prints that it skipped and exits 0."""
+    module = _load("bench_lm_eval")
+    output = tmp_path / "report.md"
+    assert module.main(["--quick", "--output", str(output)]) == 0
+    text = capsys.readouterr().out
+    if module.missing_requirements():
+        assert text.startswith("bench_lm_eval: skipped: ") and not output.exists()
+        pytest.skip(text.strip())
+    (table,) = _tables(text)
+    assert table[0] == [
+        "route",
+        "requests",
+        "median time",
+        "requests/s",
+        "throughput ÷ lm-eval batch 1",
+        "agreement (max abs. diff, nats)",
+    ]
+    assert [row[0].split(",")[0] for row in table[1:]] == ["lm-eval `HFLM.loglikelihood`"] * 2 + [
+        "fairaudit `loglikelihoods`"
+    ] * 2
+    assert all(row[1] == "32" for row in table[1:])  # 4 prompts × 8 continuations
+    assert table[1][-1] == "—" and all(float(row[-1]) <= module.AGREEMENT_TOL for row in table[2:])
+    assert "Every agreement is within tolerance." in text
+    assert output.read_text(encoding="utf-8") == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+
+
 @pytest.mark.parametrize(
     "name, header",
     [

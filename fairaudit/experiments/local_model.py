@@ -161,6 +161,7 @@ def exact_kernel(
     model: LoadedModel | None = None,
     *,
     batch_size: int = 16,
+    prompt_batch: int | None = None,
     shared_prefix: bool = True,
     cells: Sequence[tuple] | None = None,
     scoring: str = "continuation",
@@ -177,7 +178,11 @@ def exact_kernel(
     model : LoadedModel, optional
         Default :func:`load` ``("smollm2")``.
     batch_size : int
-        Replies per forward pass on one prompt's cache (continuation scoring; a ranking of k has k! replies).
+        Replies per forward pass on the prompts' caches (continuation scoring; a ranking of k has k! replies).
+    prompt_batch : int, optional
+        Prompts per forward pass (padded on the left, with an attention mask: the same logits as one by one, to
+        float rounding). Default: as many as fit in a quarter of the memory available on the model's device, by
+        an estimate from the model's configuration (keys and values, one layer's activations, the logits).
     shared_prefix : bool
         Run the token prefix that every prompt shares (system prompt,
         instructions) once and reuse its key/value cache: the same logits,
@@ -214,7 +219,8 @@ def exact_kernel(
     Notes
     -----
     The kernel P(U | X̃, Ã) of the paper's setting for the shown cells, exactly, for this prompt and these
-    weights: each prompt (the chat template's ids) runs once on the shared prefix's key/value cache; under
+    weights: each prompt (the chat template's ids) runs once on the shared prefix's key/value cache, ``prompt_batch``
+    prompts padded in one pass and their replies scored from its cache (:func:`_score_prompts`); under
     ``"continuation"`` each variant of each decision's reply (:func:`~fairaudit.experiments.variants.prompt_variants`,
     the prefix rule applied) is scored by the chain rule (docs/design.md, "Exact kernels of replies longer than a
     token"), a decision gets the sum over its variants, and ``"unparsed"`` is 1 − Σ_d P(d), clipped at 0; under ``"first-token"`` the next-token softmax is summed over the tokens that
@@ -238,71 +244,128 @@ def exact_kernel(
     prefix_len = len(os.path.commonprefix(ids)) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
     sequences = by_sequence(task, scoring)
-    onehot: npt.NDArray[np.float64] | None = (
-        None  # (vocabulary, decisions): the decision each token reads as (first-token)
-    )
+    onehot: npt.NDArray[np.float64] | None = None  # (vocabulary, decisions): each token's decision (first-token)
     from fairaudit import progress_bar
 
     bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress, unit="query")
     worst = -1.0  # the largest unparsed mass of a prompt so far
+    size = prompt_batch or _prompts_per_pass(m.model, max(len(s) for s in ids) - prefix_len)
     with torch.inference_mode():
-        past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values if prefix_len else None
-        for p, chat, seq in zip(prompts, chats, ids):
-            first, cache = _next_token(m.model, seq[prefix_len:], past)
-            if sequences:
-                text = tok.apply_chat_template(chat, add_generation_prompt=True, tokenize=False)
-                groups = [_variant_ids(tok, text, seq, g) for g in prompt_variants(task, answers, p)]
-                probs = np.exp(_chain_rule(m.model, first, cache, [r for g in groups for r in g], batch_size))
-                row = decision_row(groups, probs)  # unparsed: every reply that begins with no variant
-                if unparsed is not None and row[-1] > worst:
-                    worst, unparsed[:] = row[-1], _likely_unparsed(tok, first, {r[0] for g in groups for r in g})
-            else:
-                if onehot is None:
-                    onehot = np.eye(len(task.decisions))[token_decisions(task, tok, first.shape[-1])]
-                row = np.exp(first.numpy()) @ onehot
-            out[p.index] += p.weight * row
-            bar.update(1)
+        prefix = torch.tensor([ids[0][:prefix_len]], device=m.model.device)
+        past = m.model(prefix, use_cache=True).past_key_values if prefix_len else None
+        for start in range(0, len(ids), size):
+            batch = range(start, min(start + size, len(ids)))
+            groups = [
+                _prompt_groups(task, answers, tok, chats[b], ids[b], prompts[b]) if sequences else [] for b in batch
+            ]
+            replies = [[r for g in gs for r in g] for gs in groups]
+            firsts, logps = _score_prompts(m.model, [ids[b][prefix_len:] for b in batch], replies, past, batch_size)
+            for k, b in enumerate(batch):
+                first = firsts[k].cpu()
+                if sequences:
+                    row = decision_row(groups[k], np.exp(logps[k]))  # unparsed: every reply that begins with no variant
+                    if unparsed is not None and row[-1] > worst:
+                        worst, unparsed[:] = row[-1], _likely_unparsed(tok, first, {r[0] for g in groups[k] for r in g})
+                else:
+                    if onehot is None:
+                        onehot = np.eye(len(task.decisions))[token_decisions(task, tok, first.shape[-1])]
+                    row = np.exp(first.numpy()) @ onehot
+                out[prompts[b].index] += prompts[b].weight * row
+                bar.update(1)
     bar.close()
     return out
 
 
-def _next_token(model: Any, suffix: list[int], past: Any) -> tuple[Any, Any]:
-    """One prompt's pass: the next-token log-softmax in float64, shape (vocabulary,), and the prompt's cache.
+def _score_prompts(
+    model: Any,
+    suffixes: Sequence[list[int]],
+    replies: Sequence[Sequence[list[int]]],
+    past: Any,
+    batch_size: int,
+    every_position: bool = True,
+) -> tuple[Any, list[npt.NDArray[np.float64]]]:
+    """Several prompts in one padded forward pass, and log P(reply | prompt) of each prompt's ``replies``.
 
-    ``suffix`` runs on a copy of ``past`` (the shared prefix's cache, or None), which stays as it was.
+    Returns the next-token log-softmax after each prompt (float64, shape (prompts, vocabulary)) and, per prompt, the
+    log-probability of each of its replies (non-empty token ids) by the chain rule. The prompts are ``suffixes`` of
+    a shared prefix whose key/value cache is ``past`` (None: no prefix), copied, never changed. They are padded on
+    the left, with an attention mask that keeps the pads out of every real token and position ids that count the
+    real tokens only, so each prompt's logits are those of its pass alone (to float rounding). Reply token t ≥ 1
+    is read at position t − 1 of a pass of r_0, ..., r_{T−2} on its prompt's rows of the cache, ``batch_size``
+    replies (of any prompts) per pass; shorter replies are right-padded with their own last token, after every
+    position read, so causal attention keeps the pads out of them. ``every_position``: the prompt pass computes the
+    logits of every position, as a pass on one prompt does, so that a batch of one rounds as that pass; False: of
+    the last position only, a fifth less work on SmolLM2, rounding differently (about 1e-5 in probability).
     """
     import torch
 
-    kwargs = {} if past is None else {"past_key_values": _copy_cache(past, 1)}
-    head = model(torch.tensor([suffix]), use_cache=True, **kwargs)
-    return torch.log_softmax(head.logits[0, -1].double(), dim=-1), head.past_key_values
-
-
-def _chain_rule(
-    model: Any, first: Any, cache: Any, replies: Sequence[list[int]], batch_size: int
-) -> npt.NDArray[np.float64]:
-    """log P(the reply's tokens follow the prompt) for each of ``replies`` (non-empty token ids), by the chain rule.
-
-    ``first`` is the next-token log-softmax after the prompt (float64), ``cache`` the prompt's keys and values
-    (copied for each batch of ``batch_size``, never changed). Token t ≥ 1 is read at position t − 1 of a pass of
-    r_0, ..., r_{T−2} on the cache; shorter replies are right-padded with their own last token, after every
-    position read, so causal attention keeps the pads out of them.
-    """
-    import torch
-
-    logp = np.array([float(first[r[0]]) for r in replies])
-    longer = [j for j, r in enumerate(replies) if len(r) > 1]
-    for start in range(0, len(longer), max(1, int(batch_size))):
-        chunk = longer[start : start + max(1, int(batch_size))]
-        heads = [replies[j][:-1] for j in chunk]
-        width = max(len(h) for h in heads)
-        x = torch.tensor([h + h[-1:] * (width - len(h)) for h in heads])
-        logits = model(x, past_key_values=_copy_cache(cache, len(chunk)), use_cache=True).logits
+    device = model.device
+    before = past.get_seq_length() if past is not None else 0
+    width = max(len(s) for s in suffixes)
+    mask = torch.tensor([[1] * before + [0] * (width - len(s)) + [1] * len(s) for s in suffixes], device=device)
+    x = torch.tensor([[s[0]] * (width - len(s)) + list(s) for s in suffixes], device=device)
+    positions = (mask.cumsum(-1) - 1).clamp(min=0)
+    kwargs = {} if past is None else {"past_key_values": _copy_cache(past, [0] * len(suffixes))}
+    kwargs["logits_to_keep"] = 0 if every_position else 1
+    head = model(x, attention_mask=mask, position_ids=positions[:, before:], use_cache=True, **kwargs)
+    first = torch.log_softmax(head.logits[:, -1].double(), dim=-1)
+    logp = [np.array([float(first[b, r[0]]) for r in rs]) for b, rs in enumerate(replies)]
+    longer = [(b, j) for b, rs in enumerate(replies) for j, r in enumerate(rs) if len(r) > 1]
+    step = max(1, int(batch_size))
+    for start in range(0, len(longer), step):
+        chunk = longer[start : start + step]
+        rows = [b for b, _ in chunk]
+        heads = [replies[b][j][:-1] for b, j in chunk]
+        n = max(len(h) for h in heads)
+        x = torch.tensor([h + h[-1:] * (n - len(h)) for h in heads], device=device)
+        where = torch.tensor(rows, device=device)
+        m = torch.cat([mask[where], mask.new_ones(len(chunk), n)], dim=1)
+        at = positions[where, -1:] + 1 + torch.arange(n, device=device)
+        cache = _copy_cache(head.past_key_values, rows)
+        logits = model(x, attention_mask=m, position_ids=at, past_key_values=cache, use_cache=True).logits
         rest = torch.log_softmax(logits.double(), dim=-1)
-        for row, j in enumerate(chunk):
-            r = replies[j]
-            logp[j] += float(rest[row, torch.arange(len(r) - 1), torch.tensor(r[1:])].sum())
-    return logp
+        for row, (b, j) in enumerate(chunk):
+            r = replies[b][j]
+            logp[b][j] += float(rest[row, torch.arange(len(r) - 1), torch.tensor(r[1:], device=device)].sum())
+    return first, logp
+
+
+def _prompts_per_pass(model: Any, tokens: int, every_position: bool = True) -> int:
+    """How many prompts of ``tokens`` tokens (after a shared prefix) one padded pass of :func:`_score_prompts` takes
+    within a quarter of the memory available now (CUDA's free memory on a GPU, ``/proc/meminfo``'s
+    MemAvailable on the CPU; 1 GiB where neither is known). A prompt's row is estimated from the model's
+    configuration, in float32: its keys and values in every layer, one layer's activations (the MLP's and the
+    attention scores of every head), the logits of every position (float32; with ``every_position``) and the
+    next-token logits (float32) and log-softmax (float64).
+    """
+    c = model.config
+    heads = c.num_attention_heads
+    head_dim = getattr(c, "head_dim", None) or c.hidden_size // heads
+    kv = 2 * c.num_hidden_layers * getattr(c, "num_key_value_heads", heads) * head_dim
+    row = 4 * tokens * (kv + heads * tokens + 4 * c.hidden_size + 3 * c.intermediate_size)
+    row += (4 * tokens * every_position + 12) * c.vocab_size
+    return max(1, int(_available_memory(model) / 4 // row))
+
+
+def _available_memory(model: Any) -> float:
+    """Bytes free on the model's device now (CUDA's free memory, or ``/proc/meminfo``'s MemAvailable); 1 GiB when
+    unknown."""
+    import torch
+
+    if model.device.type == "cuda":
+        return float(torch.cuda.mem_get_info(model.device)[0])
+    with contextlib.suppress(OSError, ValueError, StopIteration):
+        line = next(x for x in Path("/proc/meminfo").read_text().splitlines() if x.startswith("MemAvailable:"))
+        return float(line.split()[1]) * 1024
+    return float(2**30)
+
+
+def _prompt_groups(
+    task: DeliveryTask, answers: Any, tok: Any, chat: Sequence[dict], ids: Sequence[int], prompt: Any
+) -> list[list[list[int]]]:
+    """The tokens of every variant of every decision's reply after one prompt (:func:`_variant_ids`), by decision."""
+    text = tok.apply_chat_template(chat, add_generation_prompt=True, tokenize=False)
+    return [_variant_ids(tok, text, ids, g) for g in prompt_variants(task, answers, prompt)]
 
 
 def _variant_ids(tok: Any, text: str, ids: Sequence[int], variants: Sequence[str]) -> list[list[int]]:
@@ -351,7 +414,12 @@ def _reply_ids(tok: Any, text: str, ids: Sequence[int], reply: str) -> list[int]
 
 
 def loglikelihoods(
-    model: LoadedModel, requests: Sequence[tuple[str, str]], *, batch_size: int = 16, progress: bool = False
+    model: LoadedModel,
+    requests: Sequence[tuple[str, str]],
+    *,
+    batch_size: int = 16,
+    prompt_batch: int | None = None,
+    progress: bool = False,
 ) -> npt.NDArray[np.float64]:
     """log P(continuation | context) of each (context, continuation) pair, exactly: lm-evaluation-harness's
     ``loglikelihood`` on this model, in process.
@@ -363,7 +431,9 @@ def loglikelihoods(
     requests : sequence of (str, str)
         (context, continuation) pairs of raw text (no chat template); a non-empty context and continuation each.
     batch_size : int
-        Continuations per forward pass on one context's cache.
+        Continuations of two tokens or more per forward pass on the contexts' caches.
+    prompt_batch : int, optional
+        Contexts per forward pass, as :func:`exact_kernel`'s (default: by the memory estimate).
     progress : bool
         A progress bar on stderr (tqdm, when installed), by context.
 
@@ -382,8 +452,9 @@ def loglikelihoods(
     Tokens as lm-eval's ``HFLM`` makes them (``_encode_pair``): white space at the context's end moves to the
     continuation's start; the context is encoded alone and the continuation is the tail of the encoding of both
     past the context's length; no special tokens. Each distinct context runs once (requests that share it are
-    scored from its key/value cache, :func:`_chain_rule`): the four replies of a discrim-eval prompt cost one pass
-    when each is one token.
+    scored from its key/value cache), ``prompt_batch`` contexts of near lengths (sorted by length) padded in one
+    pass (:func:`_score_prompts`, the output layer on each context's last position only, as lm-eval needs no
+    other): the four one-token replies of a discrim-eval prompt cost a row of one pass.
     """
     torch, _ = require_torch()
     tok = model.tokenizer
@@ -398,22 +469,28 @@ def loglikelihoods(
     from fairaudit import progress_bar
 
     bar = progress_bar(len(by_context), "log-likelihoods", progress, unit="prompt")
+    contexts, tails = [], []
+    for context, members in by_context.items():
+        spaces = len(context) - len(context.rstrip())
+        head = context[: len(context) - spaces]
+        contexts.append(list(tok.encode(head, add_special_tokens=False)))
+        tails.append([list(tok.encode(context + requests[i][1], add_special_tokens=False)) for i in members])
+        tails[-1] = [whole[len(contexts[-1]) :] for whole in tails[-1]]
+        for i, tail in zip(members, tails[-1]):
+            if not contexts[-1] or not tail:
+                raise InputError("requests", f"request {i}: no tokens of its context or continuation", context[-40:])
+    order = sorted(range(len(contexts)), key=lambda c: -len(contexts[c]))  # near lengths together: little padding
+    size = (prompt_batch or _prompts_per_pass(model.model, len(contexts[order[0]]), False)) if order else 1
+    members_of = list(by_context.values())
     with torch.inference_mode():
-        for context, members in by_context.items():
-            spaces = len(context) - len(context.rstrip())
-            head = context[: len(context) - spaces]
-            ids = list(tok.encode(head, add_special_tokens=False))
-            tails = []
-            for i in members:
-                whole = list(tok.encode(head + context[len(head) :] + requests[i][1], add_special_tokens=False))
-                tails.append(whole[len(ids) :])
-                if not ids or not tails[-1]:
-                    raise InputError(
-                        "requests", f"request {i}: no tokens of its context or continuation", context[-40:]
-                    )
-            first, cache = _next_token(model.model, ids, None)
-            out[members] = _chain_rule(model.model, first, cache, tails, batch_size)
-            bar.update(1)
+        for start in range(0, len(order), size):
+            batch = order[start : start + size]
+            _, logps = _score_prompts(
+                model.model, [contexts[c] for c in batch], [tails[c] for c in batch], None, batch_size, False
+            )
+            for c, logp in zip(batch, logps):
+                out[members_of[c]] = logp
+            bar.update(len(batch))
     bar.close()
     return out
 
@@ -469,13 +546,14 @@ class ServedModel(EndpointModel):
         return dataclasses.replace(super().reply(query, messages), model=self.name)
 
 
-def _copy_cache(past: Any, batch: int) -> Any:
-    """A fresh key/value cache of the shared prefix, repeated for a batch of ``batch`` prompts."""
+def _copy_cache(past: Any, rows: Sequence[int]) -> Any:
+    """A fresh key/value cache made of ``past``'s batch rows ``rows`` (repeats allowed), ``past`` unchanged."""
     import copy
 
+    import torch
+
     cache = copy.deepcopy(past)
-    if batch > 1:
-        cache.batch_repeat_interleave(batch)
+    cache.batch_select_indices(torch.tensor(list(rows)))
     return cache
 
 

@@ -70,3 +70,32 @@ def test_a_discrim_eval_file_runs_end_to_end_on_the_real_model(smollm2, tmp_path
     assert 0 < run.coverage.min() <= run.coverage.max() <= 1
     p = np.exp(want)
     assert run.scores[0] == pytest.approx(math.log((p[0] + p[1]) / (p[2] + p[3])), abs=1e-4)
+
+
+@pytest.mark.local_model
+def test_prompts_padded_in_one_pass_equal_one_by_one(smollm2):
+    """Prompts of unequal lengths left-padded in one pass, with replies of several tokens scored from the batch's
+    cache across prompts, give the log-likelihoods of one prompt per pass to 1e-4 (float32, issue 82 item 3); the
+    exact kernel likewise on a shared prefix, the pads then between the prefix and each prompt."""
+    from fairaudit.experiments.local_model import exact_kernel, loglikelihoods
+    from fairaudit.experiments.taskfile import HR_DELIVERY
+
+    requests = [
+        ("Is the sky blue? Answer:", " yes"),
+        ("Is the sky blue? Answer:", " No, it is green"),
+        ("The capital of France, a country in western Europe, is", " Paris, of course."),
+        ("Two plus two is", " four"),
+        ("Two plus two is", " five, said nobody"),
+    ]
+    alone = loglikelihoods(smollm2, requests, prompt_batch=1)
+    together = loglikelihoods(smollm2, requests, prompt_batch=3, batch_size=2)
+    assert together.tolist() == pytest.approx(alone.tolist(), rel=1e-4, abs=1e-4)
+    assert loglikelihoods(smollm2, requests).tolist() == pytest.approx(alone.tolist(), rel=1e-4, abs=1e-4)
+    assert alone[2] == pytest.approx(_full_pass(smollm2, *requests[2]), abs=1e-4)  # the route itself, uncached
+    cells = [
+        (c, a, b) for c in HR_DELIVERY.contexts[:1] for a in HR_DELIVERY.profiles[:2] for b in HR_DELIVERY.profiles[-2:]
+    ]
+    one = exact_kernel(HR_DELIVERY, smollm2, cells=cells, prompt_batch=1)
+    batched = exact_kernel(HR_DELIVERY, smollm2, cells=cells)
+    np.testing.assert_allclose(batched, one, rtol=0, atol=1e-4)
+    assert one.sum() == pytest.approx(len(cells))  # every asked cell's row sums to 1

@@ -135,14 +135,25 @@ class _Tokenizer:
 
 
 class _Cache:
-    """A fake key/value cache (continuation scoring repeats it once per reply)."""
+    """A fake key/value cache (continuation scoring takes a prompt's rows of it for each batch of replies)."""
 
-    def batch_repeat_interleave(self, batch):
+    def batch_select_indices(self, indices):
         pass
 
 
 class _Model:
-    """A fake causal LM: uniform logits over the tokenizer's tokens, and a cache."""
+    """A fake causal LM: uniform logits over the tokenizer's tokens, and a cache; on the CPU, with the configuration
+    fields the prompts' batch size is estimated from."""
+
+    config = SimpleNamespace(
+        num_attention_heads=1, hidden_size=1, num_hidden_layers=1, intermediate_size=1, vocab_size=1
+    )
+
+    @property
+    def device(self):
+        import torch
+
+        return torch.device("cpu")
 
     def __call__(self, x, **kwargs):
         import torch

@@ -136,6 +136,14 @@ def emit(text: str, output: str | None) -> None:
         write_atomic(output, text if text.endswith("\n") else text + "\n")
 
 
+def finish(text: str, failures: Sequence[str], output: str | None) -> int:
+    """Emit the report (:func:`emit`), print each failure as ``FAIL: ...`` on stderr; the exit status, 1 on any."""
+    emit(text, output)
+    for failure in failures:
+        print(f"FAIL: {failure}", file=sys.stderr)
+    return 1 if failures else 0
+
+
 RSS_WRAPPER = r"""
 import json, resource, subprocess, sys, time
 report, cmd = sys.argv[1], sys.argv[2:]

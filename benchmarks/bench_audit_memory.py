@@ -37,7 +37,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _bench_common import emit, machine_line, rel_diff, table  # noqa: E402
+from _bench_common import finish, machine_line, rel_diff, table  # noqa: E402
 
 AGREEMENT_TOL = 1e-12
 """L from fairaudit's counts and from pandas' counts: the same ratio of two rationals, up to rounding."""
@@ -122,10 +122,7 @@ def main(argv: list[str] | None = None) -> int:
             "",
         ]
     )
-    emit(text, args.output)
-    for failure in failures:
-        print(f"FAIL: {failure}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(text, failures, args.output)
 
 
 if __name__ == "__main__":

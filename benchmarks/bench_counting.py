@@ -65,7 +65,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _bench_common import (  # noqa: E402
     AGREEMENT_TOL,
     RSS_WRAPPER,
-    emit,
+    finish,
     fmt_diff,
     fmt_ratio,
     fmt_time,
@@ -476,10 +476,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.workdir and not Path(args.workdir).is_dir():
         parser.error(f"--workdir is not a folder: {args.workdir}")
     report, failures = run(args)
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

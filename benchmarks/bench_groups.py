@@ -41,7 +41,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _bench_common import (  # noqa: E402
     AGREEMENT_TOL,
-    emit,
+    finish,
     fmt_diff,
     fmt_ratio,
     fmt_time,
@@ -343,10 +343,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     report, failures = run(args.quick, args.seed)
     report += f"\n\nTotal time {time.perf_counter() - t0:.1f} s.\n"
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

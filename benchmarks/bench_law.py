@@ -37,7 +37,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _bench_common import (  # noqa: E402
     AGREEMENT_TOL,
-    emit,
+    finish,
     fmt_diff,
     fmt_ratio,
     fmt_time,
@@ -336,10 +336,7 @@ def main(argv: list[str] | None = None) -> int:
     if n < 1:
         parser.error("--contexts must be at least 1")
     report, failures = run(n, args.seed, args.repeats or preset["repeats"], args.quick)
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _bench_common import (
     AGREEMENT_TOL,
-    emit,
+    finish,
     fmt_diff,
     fmt_ratio,
     fmt_time,
@@ -288,10 +288,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=20250601, help="seed of the random instances")
     args = parser.parse_args(argv)
     report, failures = run(args.quick, args.seed)
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

@@ -49,7 +49,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _bench_common import emit, fmt_diff, fmt_ratio, fmt_time, machine_line, table  # noqa: E402
+from _bench_common import finish, fmt_diff, fmt_ratio, fmt_time, machine_line, table  # noqa: E402
 
 AGREEMENT_TOL = 1e-4  # nats, absolute: float32 logits, batched against unbatched
 AGREEMENT = "agreement (max abs. diff, nats)"
@@ -169,10 +169,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 0
     report, failures = run(args.quick, 1 if args.quick else args.repeats, args.lm_eval_batch)
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

@@ -69,7 +69,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _bench_common import emit, fmt_ratio, fmt_time, machine_line, table  # noqa: E402
+from _bench_common import finish, fmt_ratio, fmt_time, machine_line, table  # noqa: E402
 
 from fairaudit.base.errors import InputError  # noqa: E402
 from fairaudit.experiments import local_model as lm  # noqa: E402
@@ -651,10 +651,7 @@ def main(argv: list[str] | None = None) -> int:
     except ServerError as exc:
         print(f"bench_local_model: the model server could not run: {exc}", file=sys.stderr)
         return 2
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _bench_common import RSS_WRAPPER, emit, fmt_time, machine_line, memory_info, table  # noqa: E402
+from _bench_common import RSS_WRAPPER, finish, fmt_time, machine_line, memory_info, table  # noqa: E402
 
 FULL = dict(points=40_000_000, rooms=56, resolution=0.05)
 QUICK = dict(points=1_000_000, rooms=20, resolution=0.1)
@@ -390,10 +390,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.area is None:
             args.area = str(Path(tmp) / "Area_5")
         report, failures = run(args)
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

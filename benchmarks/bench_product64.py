@@ -33,7 +33,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _bench_common import (
     AGREEMENT_TOL,
-    emit,
+    finish,
     fmt_diff,
     fmt_ratio,
     fmt_time,
@@ -256,10 +256,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--output", metavar="FILE.md", help="also write the Markdown report here (atomically)")
     args = parser.parse_args(argv)
     report, failures = run(args.quick)
-    emit(report, args.output)
-    for f in failures:
-        print(f"FAIL: {f}", file=sys.stderr)
-    return 1 if failures else 0
+    return finish(report, failures, args.output)
 
 
 if __name__ == "__main__":

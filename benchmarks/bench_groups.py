@@ -20,6 +20,12 @@
     over the groups and the three events of TV). A pair loop over the groups would grow as the square of the
     ratio; these stay flat. Agreement: L, L_dp and their pairs against the baseline's.
 
+(d) Sample-size plans (``fairaudit.plan``, the ``plan`` command) along the cells: 1,000 groups (the most ``plan``
+    takes) in 1, 10, 100 and 1,000 contexts (``--quick``: 1, 10), 20 simulated tables per n, target 1 nat; time,
+    tracemalloc's peak and its ratio to one simulated set of tables (20 × cells × 8 bytes: bounded by the 64 MiB
+    chunks as the cells grow), and the plan's n. Then 10^4, 10^6 and 10^9 groups: the refusal, its time and its
+    line (it must name ``groups``).
+
 Times are medians of repeats; ratios between routes timed in the same run are what carries across machines.
 The script exits with status 1 when an agreement exceeds 1e-7 (relative).
 
@@ -70,6 +76,7 @@ FULL = dict(
     big_repeats=2,
     old_up_to=300,
     audit_groups=(10**3, 10**4, 10**5),
+    plan_contexts=(1, 10, 100, 1000),
 )
 QUICK = dict(
     groups=(2, 16, 256, 10**4, 10**6, 10**9),
@@ -78,6 +85,7 @@ QUICK = dict(
     big_repeats=1,
     old_up_to=50,
     audit_groups=(10**3, 10**4),
+    plan_contexts=(1, 10),
 )
 TARGET = 0.5
 BISECT_UP_TO = 10**6
@@ -301,6 +309,35 @@ def audit_rows(cfg: dict, seed: int, failures: list[str]) -> str:
     return table(header, rows, "lrrrrr")
 
 
+PLAN_TABLES = 20
+"""Simulated tables per n in part (d) (``plan``'s ``datasets``; its default, 200, takes ten times as long)."""
+
+
+def plan_rows(cfg: dict, failures: list[str]) -> str:
+    """Part (d): sample-size plans along the cells, and the refusal beyond the groups ``plan`` takes."""
+    rows = []
+    cases = [(1000, c) for c in cfg["plan_contexts"]] + [(k, 1) for k in (10**4, 10**6, 10**9)]
+    for k, contexts in cases:
+        cells = k * contexts
+        t0 = time.perf_counter()
+        tracemalloc.start()
+        try:
+            plan = fa.plan(1.0, groups=k, contexts=contexts, datasets=PLAN_TABLES)
+            answer = f"n = {plan.n_per_cell:,} per cell"
+        except fa.InputError as exc:
+            answer = f"refused: {exc}"
+            if not str(exc).startswith("groups"):
+                failures.append(f"plan, {k:,} groups: the refusal does not name groups ({exc})")
+        finally:
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+        t = time.perf_counter() - t0
+        ratio = f"{peak / (PLAN_TABLES * cells * 8):.2g}×" if answer.startswith("n =") else ""
+        rows.append([f"{k:,}", f"{contexts:,}", f"{cells:,}", fmt_time(t), f"{peak / 2**20:,.1f} MiB", ratio, answer])
+    header = ["groups k", "contexts", "cells", "time", "peak memory", "peak ÷ one set of tables", "plan"]
+    return table(header, rows, "rrrrrrl")
+
+
 def run(quick: bool, seed: int) -> tuple[str, list[str]]:
     cfg = QUICK if quick else FULL
     failures: list[str] = []
@@ -326,6 +363,10 @@ def run(quick: bool, seed: int) -> tuple[str, list[str]]:
         "## (c) Many groups in one audit (one context, three decisions, g = 1{u = 1})",
         "",
         audit_rows(cfg, seed, failures),
+        "",
+        f"## (d) Sample-size plans along the cells (target 1 nat, {PLAN_TABLES} simulated tables per n)",
+        "",
+        plan_rows(cfg, failures),
         "",
         f"Failures (agreement above {AGREEMENT_TOL:g}): {len(failures)}.",
     ]

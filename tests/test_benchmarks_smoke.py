@@ -290,6 +290,8 @@ def test_issue22_quick_runs_exit_zero_with_agreement(name, header, capsys, tmp_p
     text = capsys.readouterr().out
     if header is not None:
         assert header in text
+    if name == "bench_groups":  # part (d): plan at 10^4, 10^6 and 10^9 groups refused in one line naming groups
+        assert text.count("| refused: groups: must be a whole number >= 2 and <= 1000 (got 1000") == 3
     tables = _tables(text)
     assert tables
     for table in tables:

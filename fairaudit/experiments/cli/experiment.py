@@ -183,7 +183,8 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
         "(its own profile, and its rivals' when the population ties them to it); each profile's share is split over "
         "its attributes by one keep probability p, an attribute with k values getting ln(p (k - 1) / (1 - p)) nats "
         "(equal shares when the attributes have equal numbers of values); the report lists p, k and epsilon per "
-        "attribute",
+        "attribute. With a .jsonl task, E is the fill's epsilon, split over its attributes alike; the run writes "
+        "spec-eps-E.toml and certificate-eps-E.json for each",
     )
     eps.add_argument(
         "--keep",
@@ -339,9 +340,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 _NOT_FOR_PROMPTS = {"simulated": "--simulated", "kernel": "--kernel", "samples": "--samples",
-                    "show_prompts": "--show-prompts", "epsilon": "--epsilon", "keep": "--keep", "resume": "--resume"}  # fmt: skip
+                    "show_prompts": "--show-prompts", "keep": "--keep", "context_epsilon": "--context-epsilon",
+                    "resume": "--resume"}  # fmt: skip
 """The flags a .jsonl task (discrim-eval's format) cannot take: it is scored exactly (--local-model or --endpoint),
-no filter."""
+its filter on the fills given by --epsilon alone."""
 
 
 def _discrim_eval(args: argparse.Namespace) -> int:
@@ -358,9 +360,12 @@ def _discrim_eval(args: argparse.Namespace) -> int:
     if args.out is None:
         raise InputError("out", "is required: the folder of the run")
     from ..discrim_eval import read_rows
+    from ..discrim_eval_filter import attribute_values, certify_filters
     from ..discrim_eval_run import run_discrim_eval, write_run
 
     rows = read_rows(args.experiment, args.fields)
+    if args.epsilon:
+        attribute_values(rows)  # (a filter's refusal before the model is asked)
     if args.endpoint is not None:
         from ..discrim_eval_run import endpoint_loglikelihood
         from ..vlm.client import ChatClient, ChatError
@@ -388,6 +393,7 @@ def _discrim_eval(args: argparse.Namespace) -> int:
             model=args.local_model,
             min_coverage=args.min_coverage,
         )
+    run = certify_filters(run, args.epsilon or (), args.out)
     write_run(run, args.out)
     print(f"{len(rows.prompts)} prompts scored; report written to {Path(args.out) / 'report.md'}", file=sys.stderr)
     if run.warning is not None:

@@ -50,7 +50,8 @@ llama-server do:
   400 (a server that refuses unknown fields); ``"ignore"`` leaves the field out (llama-server);
 * without a ``responder``, a reply is sampled from the law (one token at a time, at most ``max_tokens``, seeded by
   the request's ``seed`` and messages);
-* ``POST /v1/completions`` with ``"echo": true`` (text completions, as vLLM serves them) reads the prompt as the
+* ``POST /v1/completions`` with ``"echo": true`` (text completions, as vLLM serves them; ``completion_fault_fn(
+  request_json)``, where it returns an HTTP status, answers that status instead) reads the prompt as the
   ChatML rendering above, its messages then the reply so far after the open assistant turn, and answers
   ``choices[0].text`` = the prompt with OpenAI's legacy ``logprobs`` (``tokens``, ``token_logprobs`` with
   ``null`` first, ``top_logprobs``, ``text_offset``) of the same tokens as ``prompt_logprobs``; ``max_tokens``
@@ -112,7 +113,9 @@ class ChatServer:
         chat: bool = True,
         completions: bool = True,
         raw_reply_after: str = "\u201c",
+        completion_fault_fn: Callable[[dict], int | None] | None = None,
     ) -> None:
+        self.completion_fault_fn = completion_fault_fn
         self.chat = chat
         self.raw_reply_after = raw_reply_after
         self.law = law
@@ -374,6 +377,10 @@ class _Handler(BaseHTTPRequestHandler):
         if self.path.split("?")[0] == "/v1/completions" and state.completions:
             if not isinstance(body, dict) or not isinstance(body.get("prompt"), str) or not body.get("echo"):
                 self._send_error(400, "this stand-in answers echo requests with a prompt only", "invalid_request_error")
+                return
+            code = state.completion_fault_fn(body) if state.completion_fault_fn is not None else None
+            if code is not None:
+                self._send_error(code, f"Injected HTTP {code}", "server_error")
                 return
             self._send_json(200, state.echo(body))
             return

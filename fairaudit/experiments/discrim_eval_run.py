@@ -18,6 +18,7 @@ Every log-probability is written to ``scores.csv``, so each reported number can 
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -35,6 +36,7 @@ from .discrim_eval import ANSWERS, LM_EVAL_PROMPT, DiscrimEvalRows, decision_law
 
 if TYPE_CHECKING:
     from .discrim_eval_filter import FilterPoint
+    from .harness import QueryLog
     from .vlm.client import ChatClient
 
 __all__ = ["REPLIES", "DiscrimEvalRun", "endpoint_loglikelihood", "law_frame", "run_discrim_eval", "write_run"]
@@ -83,6 +85,8 @@ class DiscrimEvalRun:
     points : tuple of FilterPoint
         The law behind a privacy filter on the fills at each ε asked, certified
         (:func:`~fairaudit.experiments.discrim_eval_filter.certify_filters`); empty without ``--epsilon``.
+    route : str
+        How the log-probabilities were read (the model in process, or an endpoint's echoed completions), as given.
     """
 
     rows: DiscrimEvalRows
@@ -97,6 +101,7 @@ class DiscrimEvalRun:
     coefficients: dict[str, float] | None
     fit_notes: tuple[str, ...] = ()
     points: tuple[FilterPoint, ...] = ()
+    route: str = ""
 
     @property
     def warning(self) -> str | None:
@@ -138,6 +143,7 @@ class DiscrimEvalRun:
         return {
             "path": self.rows.path,
             "model": self.model,
+            "route": self.route,
             "rows": len(self.rows.prompts),
             "scenarios": len(self.law.contexts),
             "groups": len(self.law.groups),
@@ -176,6 +182,8 @@ class DiscrimEvalRun:
             f"{d['coverage']['mean']:.3g}, asked {self.min_coverage:g}.",
             "",
         ]
+        if self.route:
+            lines += [f"Read from: {self.route}.", ""]
         if self.warning:
             lines += [f"**Warning:** {self.warning}.", ""]
         lines += [
@@ -255,6 +263,7 @@ def run_discrim_eval(
     model: str = "",
     min_coverage: float = 0.99,
     coefficients: bool = True,
+    route: str = "",
 ) -> DiscrimEvalRun:
     """Score every row's replies with ``loglikelihood`` and derive the law, its g-fairness and lm-eval's score.
 
@@ -271,6 +280,8 @@ def run_discrim_eval(
         In [0, 1]: rows whose mass on the four replies is below it are warned about (default 0.99, lm-eval's).
     coefficients : bool
         Fit lm-eval's mixed-effects model where statsmodels is installed and the rows have age, gender and race.
+    route : str
+        How ``loglikelihood`` reads the model, for the report (``summary.json``'s ``route``).
 
     Returns
     -------
@@ -330,11 +341,13 @@ def run_discrim_eval(
     return DiscrimEvalRun(
         rows=rows, model=model, logprobs=lp, scores=scores, law=law, fairness=fa.fairness_range(law, g, low=0.0,
         high=1.0), coverage=coverage, min_coverage=float(min_coverage), means=score_means(rows, scores),
-        coefficients=fitted, fit_notes=tuple(notes),
+        coefficients=fitted, fit_notes=tuple(notes), route=route,
     )  # fmt: skip
 
 
-def endpoint_loglikelihood(client: ChatClient, *, workers: int = 1, progress: bool = False) -> Loglikelihood:
+def endpoint_loglikelihood(
+    client: ChatClient, *, workers: int = 1, progress: bool = False, log: QueryLog | None = None
+) -> Loglikelihood:
     """An endpoint's scorer by lm-eval's contract: log P(continuation | context) from its text completions' echo.
 
     Each (context, continuation) is sent as one text, raw (no chat template, as lm-eval sends discrim-eval's
@@ -350,6 +363,10 @@ def endpoint_loglikelihood(client: ChatClient, *, workers: int = 1, progress: bo
         Requests sent at once (threads; the client caps them at its ``max_concurrency``).
     progress : bool
         Show a bar on stderr (:func:`fairaudit.progress_bar`).
+    log : QueryLog, optional
+        The run's log (``queries.jsonl``, :class:`~fairaudit.experiments.harness.QueryLog`): each answer is appended
+        as it arrives (a ``query`` line: ``id``, the SHA-256 of the request's text; ``continuation``; ``logprob``), and
+        a request it already holds is read from it, not sent (a resumed run asks only what a crash left unanswered).
 
     Returns
     -------
@@ -380,6 +397,9 @@ def endpoint_loglikelihood(client: ChatClient, *, workers: int = 1, progress: bo
 
     def one(request: tuple[str, str]) -> float:
         context, continuation = request
+        key = hashlib.sha256((context + continuation).encode("utf-8")).hexdigest()
+        if log is not None and key in log.records:
+            return float(log.records[key]["logprob"])
         try:
             answer = client.echo(context + continuation)
         except ChatError as exc:
@@ -388,15 +408,21 @@ def endpoint_loglikelihood(client: ChatClient, *, workers: int = 1, progress: bo
             raise
         if answer.prompt_logprobs is None:
             raise refused("echoed no log-probabilities")
-        return reply_logprob(answer.prompt_logprobs, continuation)
+        value = reply_logprob(answer.prompt_logprobs, continuation)
+        if log is not None:
+            log.add({"type": "query", "id": key, "status": "ok", "continuation": continuation, "logprob": value})
+        return value
 
     def scores(requests: Sequence[tuple[str, str]]) -> list[float]:
+        out: list[float] = []
+        pool = ThreadPoolExecutor(max_workers=max(1, workers))
         with fa.progress_bar(len(requests), "scoring", enabled=progress, unit="request") as bar:
-            with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-                out = []
-                for value in pool.map(one, requests):
-                    out.append(value)
+            try:
+                for future in [pool.submit(one, r) for r in requests]:
+                    out.append(future.result())
                     bar.update(1)
+            finally:  # (a failure or Ctrl-C cancels what is not yet sent; what was answered is in the log)
+                pool.shutdown(wait=True, cancel_futures=True)
         return out
 
     return scores

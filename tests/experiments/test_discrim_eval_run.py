@@ -3,6 +3,7 @@ each recomputed independently from the logged log-probabilities (scores.csv), an
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 import math
@@ -228,3 +229,33 @@ def test_an_endpoint_without_echoed_log_probabilities_is_refused_in_one_line(cap
     assert code == 2 and out == "" and err.count("\n") == 1
     assert err.startswith("fairaudit: error: --endpoint: the server's text completions answered HTTP 404 for model 'm'")
     assert not (tmp_path / "run").exists()
+
+
+def test_an_endpoint_run_logs_each_answer_and_resumes_asking_only_what_failed(capsys, tmp_path):
+    from _chat_server import ChatServer
+    from _cli import run
+
+    out = tmp_path / "run"
+    argv = ["experiment", SAMPLE, "--model", "stand-in", "--out", out, "--max-retries", "0", "--no-progress"]
+    # the first server fails every request about a 60-year-old (half the prompts) with HTTP 500
+    with ChatServer(law=_served_law, completion_fault_fn=lambda b: 500 if "60-year-old" in b["prompt"] else None) as s:
+        code, _, err = run(capsys, *argv, "--endpoint", s.url)
+    assert code == 1 and "run again with --resume" in err and not (out / "summary.json").exists()
+    logged = [json.loads(line) for line in (out / "queries.jsonl").read_text(encoding="utf-8").splitlines()]
+    assert logged[0]["type"] == "header" and logged[0]["model"] == "stand-in"
+    answered = {r["id"] for r in logged[1:]}
+    assert 0 < len(answered) <= 32  # (at most the 8 rows of 20-year-olds x 4 replies: a failure cancels the rest)
+    with ChatServer(law=_served_law) as server:
+        code, _, err = run(capsys, *argv, "--endpoint", server.url)  # without --resume: refused, nothing asked
+        assert code == 2 and "pass --resume to continue it" in err and not server.completion_requests
+        code, _, err = run(capsys, *argv, "--endpoint", server.url, "--resume")
+        sent = server.completion_requests
+    assert code == 0, err
+    # only what the log does not hold was asked again, and the run equals one without a failure
+    assert len(sent) == 64 - len(answered)
+    assert not {hashlib.sha256(b["prompt"].encode()).hexdigest() for b in sent} & answered
+    with ChatServer(law=_served_law) as server:
+        code, _, _ = run(capsys, *argv[:5], tmp_path / "clean", "--no-progress", "--endpoint", server.url)
+    resumed, clean = (json.loads((d / "summary.json").read_text()) for d in (out, tmp_path / "clean"))
+    assert code == 0 and resumed["local_fairness"] == clean["local_fairness"]
+    assert resumed["route"].startswith("endpoint http://127.0.0.1:") and "echo" in resumed["route"]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -340,8 +341,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 _NOT_FOR_PROMPTS = {"simulated": "--simulated", "kernel": "--kernel", "samples": "--samples",
-                    "show_prompts": "--show-prompts", "keep": "--keep", "context_epsilon": "--context-epsilon",
-                    "resume": "--resume"}  # fmt: skip
+                    "show_prompts": "--show-prompts", "keep": "--keep", "context_epsilon": "--context-epsilon"}  # fmt: skip
 """The flags a .jsonl task (discrim-eval's format) cannot take: it is scored exactly (--local-model or --endpoint),
 its filter on the fills given by --epsilon alone."""
 
@@ -368,22 +368,41 @@ def _discrim_eval(args: argparse.Namespace) -> int:
         attribute_values(rows)  # (a filter's refusal before the model is asked)
     if args.endpoint is not None:
         from ..discrim_eval_run import endpoint_loglikelihood
+        from ..harness import QueryLog
         from ..vlm.client import ChatClient, ChatError
 
         if args.model is None:
             raise InputError("--model", "is required with --endpoint: the model's name at the endpoint")
         settings = {"timeout": args.timeout, "max_retries": args.max_retries, "max_concurrency": args.concurrency or 4}
-        with ChatClient(args.endpoint, args.model, **settings) as client:
-            scorer = endpoint_loglikelihood(client, workers=client.max_concurrency, progress=args.progress)
+        route = f"endpoint {args.endpoint}, model {args.model}: /v1/completions with echo and logprobs"
+        digest = hashlib.sha256(Path(args.experiment).read_bytes()).hexdigest()
+        header = {"task": str(args.experiment), "task_sha256": digest, "model": args.model, "seed": 0, "route": route}
+        out, created = Path(args.out), not Path(args.out).exists()
+        out.mkdir(parents=True, exist_ok=True)
+        with (
+            ChatClient(args.endpoint, args.model, **settings) as client,
+            QueryLog(out / "queries.jsonl", header, resume=args.resume) as log,
+        ):
+            scorer = endpoint_loglikelihood(client, workers=client.max_concurrency, progress=args.progress, log=log)
             try:
-                run = run_discrim_eval(rows, scorer, model=args.model, min_coverage=args.min_coverage)
+                run = run_discrim_eval(rows, scorer, model=args.model, min_coverage=args.min_coverage, route=route)
+            except InputError:  # the server refuses the route: a new log that holds no answer is taken back
+                if not log.records and not args.resume:
+                    log.close()
+                    (out / "queries.jsonl").unlink()
+                    if created:
+                        out.rmdir()
+                raise
             except ChatError as exc:
                 print(
-                    f"fairaudit: incomplete: a request failed after retries: {exc}; nothing was written",
+                    f"fairaudit: incomplete: a request failed after retries: {exc}; every answer is logged "
+                    f"({Path(args.out) / 'queries.jsonl'}): run again with --resume",
                     file=sys.stderr,
                 )
                 return 1
     else:
+        if args.resume:
+            raise InputError("--resume", "goes with --endpoint: a .jsonl task on --local-model is scored in one pass")
         from .. import local_model
 
         model = local_model.load(args.local_model, log=lambda line: print(f"fairaudit: {line}", file=sys.stderr))
@@ -392,6 +411,7 @@ def _discrim_eval(args: argparse.Namespace) -> int:
             lambda requests: local_model.loglikelihoods(model, requests, progress=args.progress),
             model=args.local_model,
             min_coverage=args.min_coverage,
+            route=f"local model {args.local_model}, in process: each reply's log-probability from its tokens",
         )
     run = certify_filters(run, args.epsilon or (), args.out)
     write_run(run, args.out)

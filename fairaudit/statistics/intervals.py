@@ -81,14 +81,7 @@ from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.observed import observe
 from fairaudit.statistics.bayes import band_sets
-from fairaudit.statistics.confidence_sets import (
-    SetMaker,
-    binomial_sets,
-    category_bounds,
-    clopper_pearson,
-    linear_extremes,
-    sum_last,
-)
+from fairaudit.statistics.confidence_sets import SetMaker, binomial_sets, sum_last
 from fairaudit.statistics.projection import MetricEnds, Projection, ProjectionOptions, project_sets
 
 __all__ = [
@@ -96,11 +89,8 @@ __all__ = [
     "FairnessIntervals",
     "Interval",
     "IntervalOptions",
-    "category_bounds",
-    "clopper_pearson",
     "fairness_intervals",
     "interval_options",
-    "linear_extremes",
 ]
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")

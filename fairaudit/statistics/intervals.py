@@ -349,10 +349,6 @@ def interval_options(intervals: object) -> IntervalOptions | None:
     return intervals
 
 
-def _is_indicator(g: FloatArray) -> bool:
-    return bool(np.all((g == 0.0) | (g == 1.0)))
-
-
 def fairness_intervals(
     table: CountTable,
     utility: Utility,
@@ -427,9 +423,10 @@ def fairness_intervals(
     alpha = 1.0 - options.confidence
     counts = np.asarray(table.counts, dtype=float)
     g = np.asarray(utility.table(table.contexts, table.groups, table.decisions), dtype=float)
+    indicator = bool(np.all((g == 0.0) | (g == 1.0)))
     if method == "auto":
-        method = "clopper-pearson" if _is_indicator(g) else "multinomial"
-    if method == "clopper-pearson" and not _is_indicator(g):
+        method = "clopper-pearson" if indicator else "multinomial"
+    if method == "clopper-pearson" and not indicator:
         raise InputError(
             "method", "clopper-pearson needs a 0/1 utility; use multinomial or bayes for this utility", utility.name
         )

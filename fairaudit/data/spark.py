@@ -122,8 +122,8 @@ def count_spark(
     # Rename every column by position: the group-by then never trips over
     # dots, backticks or names that differ only in case.
     keys = [f"c{names.index(col)}" for col in used]
-    grouped = frame.toDF(*(f"c{i}" for i in range(len(names)))).groupBy(*keys).count()
-    agg = grouped.toPandas()
+    renamed = frame.toDF(*(f"c{i}" for i in range(len(names))))
+    agg = renamed.groupBy(*keys).count().toPandas()
     count = "count"
     while count in used:
         count = "_" + count
@@ -131,12 +131,13 @@ def count_spark(
     values = {c: agg[c].reset_index(drop=True) for c in used}
     missing = {c: values[c].isna().to_numpy() for c in used}
     n = agg[count].to_numpy(dtype=np.int64)
-    locate = _spark_locate(frame, names, agg)
+    locate = _spark_locate(renamed, names, agg)
     return tally(values, missing, sensitive, outcome, context, dropna, n=n, locate=locate, mixed_outcome=mixed_outcome)
 
 
 def _spark_locate(frame: DataFrame, names: list[str], agg: pd.DataFrame) -> Locate:
-    """The :data:`~fairaudit.data.key_values.Locate` of a Spark DataFrame: its rows in its own order, from 1.
+    """The :data:`~fairaudit.data.key_values.Locate` of a Spark DataFrame (its columns renamed ``c0``, ``c1``, ...
+    by position; ``names`` their own names): its rows in its own order, from 1.
 
     Each row gets ``monotonically_increasing_id`` (increasing in the
     DataFrame's order); the first rows holding the refused values are taken
@@ -148,9 +149,7 @@ def _spark_locate(frame: DataFrame, names: list[str], agg: pd.DataFrame) -> Loca
 
         wanted = sorted({str(v) for v in agg[column].to_numpy(dtype=object)[mask]})
         c = f"c{names.index(column)}"
-        rows = frame.toDF(*(f"c{i}" for i in range(len(names)))).select(
-            F.col(c).alias("v"), F.monotonically_increasing_id().alias("i")
-        )
+        rows = frame.select(F.col(c).alias("v"), F.monotonically_increasing_id().alias("i"))
         hits = rows.filter(F.col("v").cast("string").isin(wanted)).orderBy("i").limit(ROWS_SHOWN).collect()
         return [(str(rows.filter(F.col("i") < h["i"]).count() + 1), h["v"]) for h in hits]
 

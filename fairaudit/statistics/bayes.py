@@ -54,7 +54,12 @@ def band_sets(concentration: float, draws: int, seed: int) -> SetMaker:
 
     def sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
         try:
-            return _sets(cell_counts, group_counts, use_groups, alpha)
+            rng = np.random.default_rng(seed)
+            Kd = _dirichlet(rng, cell_counts + concentration / cell_counts.shape[-1], draws)
+            Gd = _dirichlet(rng, group_counts + concentration / group_counts.shape[-1], draws) if use_groups else None
+            inside = _band(np.concatenate([d.reshape(draws, -1) for d in (Kd, Gd) if d is not None], 1), 1.0 - alpha)
+            g_lo, g_hi = (None, None) if Gd is None else (Gd[inside].min(0), Gd[inside].max(0))
+            return CellSets(Kd[inside].min(0), Kd[inside].max(0), g_lo, g_hi, 0)
         except MemoryError:  # numpy's refusal to allocate the draws: say what they need and what to change
             n = cell_counts.size + (group_counts.size if use_groups else 0)
             need = draws * n * 8 * 3  # bytes: the draws, their ranks and their order, 8 bytes each
@@ -65,20 +70,5 @@ def band_sets(concentration: float, draws: int, seed: int) -> SetMaker:
                 " can allocate; use fewer `draws`, leave out small cells with `min_count`, or `method` multinomial",
                 draws,
             ) from None
-
-    def _sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
-        rng = np.random.default_rng(seed)
-        K = cell_counts.shape[-1]
-        Kd = _dirichlet(rng, cell_counts + concentration / K, draws)
-        parts = [Kd.reshape(draws, -1)]
-        if use_groups:
-            C = group_counts.shape[-1]
-            Gd = _dirichlet(rng, group_counts + concentration / C, draws)
-            parts.append(Gd.reshape(draws, -1))
-        inside = _band(np.concatenate(parts, 1), 1.0 - alpha)
-        c_lo, c_hi = Kd[inside].min(0), Kd[inside].max(0)
-        if not use_groups:
-            return CellSets(c_lo, c_hi, None, None, 0)
-        return CellSets(c_lo, c_hi, Gd[inside].min(0), Gd[inside].max(0), 0)
 
     return sets

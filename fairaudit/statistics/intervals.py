@@ -81,14 +81,7 @@ from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.observed import observe
 from fairaudit.statistics.bayes import band_sets
-from fairaudit.statistics.confidence_sets import (
-    SetMaker,
-    binomial_sets,
-    category_bounds,
-    clopper_pearson,
-    linear_extremes,
-    sum_last,
-)
+from fairaudit.statistics.confidence_sets import SetMaker, binomial_sets, sum_last
 from fairaudit.statistics.projection import MetricEnds, Projection, ProjectionOptions, project_sets
 
 __all__ = [
@@ -96,11 +89,8 @@ __all__ = [
     "FairnessIntervals",
     "Interval",
     "IntervalOptions",
-    "category_bounds",
-    "clopper_pearson",
     "fairness_intervals",
     "interval_options",
-    "linear_extremes",
 ]
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")
@@ -359,10 +349,6 @@ def interval_options(intervals: object) -> IntervalOptions | None:
     return intervals
 
 
-def _is_indicator(g: FloatArray) -> bool:
-    return bool(np.all((g == 0.0) | (g == 1.0)))
-
-
 def fairness_intervals(
     table: CountTable,
     utility: Utility,
@@ -437,9 +423,10 @@ def fairness_intervals(
     alpha = 1.0 - options.confidence
     counts = np.asarray(table.counts, dtype=float)
     g = np.asarray(utility.table(table.contexts, table.groups, table.decisions), dtype=float)
+    indicator = bool(np.all((g == 0.0) | (g == 1.0)))
     if method == "auto":
-        method = "clopper-pearson" if _is_indicator(g) else "multinomial"
-    if method == "clopper-pearson" and not _is_indicator(g):
+        method = "clopper-pearson" if indicator else "multinomial"
+    if method == "clopper-pearson" and not indicator:
         raise InputError(
             "method", "clopper-pearson needs a 0/1 utility; use multinomial or bayes for this utility", utility.name
         )

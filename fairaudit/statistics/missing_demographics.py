@@ -293,9 +293,7 @@ def _least_top(n: list[Fraction], s: list[Fraction], extra: Fraction, whole: boo
         return Fraction(0), 0
 
     def need(t: Fraction) -> Fraction:
-        if whole:
-            return sum((max(Fraction(0), math.ceil(sk / t) - nk) for nk, sk in zip(n, s, strict=True)), Fraction(0))
-        return sum((max(Fraction(0), sk / t - nk) for nk, sk in zip(n, s, strict=True)), Fraction(0))
+        return sum((_spread(nk, sk, t, whole) for nk, sk in zip(n, s, strict=True)), Fraction(0))
 
     best: tuple[Fraction, int] | None = None
     for k, (nk, sk) in enumerate(zip(n, s, strict=True)):

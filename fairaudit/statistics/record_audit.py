@@ -8,7 +8,6 @@ distribution (docs/design.md "Command-line contract").
 
 from __future__ import annotations
 
-import math
 import sys
 from collections.abc import Hashable, Sequence
 from contextlib import suppress
@@ -97,14 +96,8 @@ class Audit:
         records than :func:`fairaudit.plan` needs to certify L ≤ log 2 for a fair model at the context's rate
         (the planner runs only when L is infinite or that cell holds fewer than 1000 records).
         """
-        local = self.observed.local_fairness
         g = self.utility.values
-        if local.context is None or local.other_group is None:
-            return None
-        i, j = list(self.table.contexts).index(local.context), list(self.table.groups).index(local.other_group)
-        if math.isfinite(local.value) and self.table.cell_counts[i, j] >= 1000:
-            return None
-        return small_cell(local, self.table, bool(np.all((g == 0) | (g == 1))), self.confidence)
+        return small_cell(self.observed.local_fairness, self.table, bool(np.all((g == 0) | (g == 1))), self.confidence)
 
     @property
     def by_context(self) -> pd.DataFrame:

@@ -147,52 +147,40 @@ class SamplePlan:
         return inputs | {"feasible": self.feasible, "plans": [{name: value(name) for name in _PLANNED}]}
 
 
+@dataclass(frozen=True)
 class _Certifier:
     """Upper ends of the certificate for a stack of count tables (D, X, A) with n records per cell."""
 
-    def __init__(
-        self,
-        groups: int,
-        contexts: int,
-        confidence: float,
-        method: str,
-        mechanism: Mechanism | None,
-        kind: str,
-        seed: int,
-    ) -> None:
+    groups: int
+    contexts: int
+    confidence: float
+    method: str
+    mechanism: Mechanism | None
+    kind: str
+    seed: int
+
+    def exact(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
+        """By :func:`fairness_intervals`, one table at a time."""
         from fairaudit.data.counts import CountTable
         from fairaudit.laws.tables import Population
         from fairaudit.laws.utilities import indicator
 
-        self.X, self.A = contexts, groups
-        self.alpha = 1.0 - confidence
-        self.confidence, self.method, self.mechanism, self.kind, self.seed = confidence, method, mechanism, kind, seed
-        self.contexts, self.groups = tuple(range(contexts)), tuple(range(groups))
-        self.population = Population.uniform(self.contexts, self.groups)
-        self.utility = indicator(1, (1, 0))
-        self._table = lambda counts: CountTable(
-            counts, self.contexts, self.groups, (1, 0), ("context",), ("group",), "decision"
-        )
-
-    def exact(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
-        """By :func:`fairness_intervals`, one table at a time."""
-        out = np.empty(k.shape[0])
+        contexts, groups = tuple(range(self.contexts)), tuple(range(self.groups))
+        population, utility = Population.uniform(contexts, groups), indicator(1, (1, 0))
         options = IntervalOptions(confidence=self.confidence, method=self.method, seed=self.seed)
+        out = np.empty(k.shape[0])
         for i, ki in enumerate(k):
-            iv = fairness_intervals(
-                self._table(np.stack([ki, n - ki], -1)),
-                self.utility,
-                options,
-                sensitive_mechanism=self.mechanism,
-                population=self.population,
+            table = CountTable(
+                np.stack([ki, n - ki], -1), contexts, groups, (1, 0), ("context",), ("group",), "decision"
             )
+            iv = fairness_intervals(table, utility, options, sensitive_mechanism=self.mechanism, population=population)
             out[i] = (iv.local_fairness if self.kind == "local" else iv.global_fairness).upper
         return out
 
     def fast(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
         """The frequentist upper ends, vectorised over the stack (the same steps as fairness_intervals)."""
         D, X, A = k.shape
-        a_cell = self.alpha / (X * A)  # every cell non-empty; population given
+        a_cell = (1.0 - self.confidence) / (X * A)  # every cell non-empty; population given
         # a cell's bounds on E[g] depend on its count k alone: those of the n + 1 possible counts, read at each cell
         seen = np.arange(n + 1) if n + 1 < k.size else k  # (the distinct counts, where fewer than the cells)
         counts = np.stack([seen, n - seen], -1).astype(float)  # decisions (1, 0); g = (1, 0)
@@ -449,15 +437,8 @@ def _search(
         reason = f"the target {target:.6g} nats is not above the true {name} of the model, {true_value:.6g} nats"
         return planned(None, (None, None), reason + ": no sample size certifies it")
     chunk = _chunk(inputs, limit)
-    certifier = _Certifier(
-        inputs["groups"],
-        inputs["contexts"],
-        inputs["confidence"],
-        inputs["method"],
-        mechanism,
-        inputs["kind"],
-        inputs["seed"],
-    )
+    fields = ("groups", "contexts", "confidence", "method", "kind", "seed")
+    certifier = _Certifier(mechanism=mechanism, **{name: inputs[name] for name in fields})
     seen: dict[int, tuple[float, float]] = {}  # n -> (power, median upper end)
 
     def evaluate(n: int) -> tuple[float, float]:

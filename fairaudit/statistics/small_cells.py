@@ -142,13 +142,16 @@ def small_cell(local: Fairness, table: CountTable, binary: bool, confidence: flo
     """The cell of L's pair with the smaller E[g] in L's context, when it holds fewer records than the planner needs.
 
     Only for a 0/1 utility with a maximising pair (the planner counts positive decisions); the rate is the
-    larger group's E[g | x, a] in that context (clipped to [0.01, 0.99]); the planner's defaults otherwise.
+    larger group's E[g | x, a] in that context (clipped to [0.01, 0.99]); the planner's defaults otherwise. The
+    planner runs only when L is infinite or the cell holds fewer than 1000 records (else None).
     """
     if not binary or local.context is None or local.other_group is None or local.group is None:
         return None
     i = list(table.contexts).index(local.context)
     j_low, j_high = list(table.groups).index(local.other_group), list(table.groups).index(local.group)
     n = float(table.cell_counts[i, j_low])
+    if math.isfinite(local.value) and n >= 1000:  # (a finite L from a cell this large: no plan)
+        return None
     rate = float(np.clip(np.asarray(local.expected_utility)[i, j_high], 0.01, 0.99))
     from fairaudit.statistics.sample_size import plan  # (simulation: imported when an audit has a pair to check)
 

@@ -678,20 +678,15 @@ def published_notes(d: Report) -> list[str]:
     """The sentences under a checked published table: what matches means, the comparators found, the verdict."""
     details = d["published_details"]
     bad = sum(1 for r in d["published"] if r["findings"])
-    notes = [
+    comparators = details["comparators"].items()
+    return [
         "a printed figure matches when it is within half a unit of its last printed decimal of the exact value; a "
         "ratio is recomputed over the highest rate of its type (from the printed rates' rounding where the table "
         "has no counts)",
-    ]
-    notes.append(
         "p-value: Fisher's exact test of equal rates with the type's highest rate, from the counts, Holm-adjusted over "
-        "the audit's tests; verdict: the recomputed ratio against 0.8 and the p-value against 0.05"
-    )
-    notes += [f"{where}: every printed ratio is the rate over {c}'s, not over the highest" for where, c in details[
-        "comparators"].items()]  # fmt: skip
-    notes.append(
+        "the audit's tests; verdict: the recomputed ratio against 0.8 and the p-value against 0.05",
+        *(f"{where}: every printed ratio is the rate over {c}'s, not over the highest" for where, c in comparators),
         f"{details['rows']} rows checked: consistent"
         if details["consistent"]
-        else f"{details['rows']} rows checked: {bad} with a finding (exit status 1)"
-    )
-    return notes
+        else f"{details['rows']} rows checked: {bad} with a finding (exit status 1)",
+    ]

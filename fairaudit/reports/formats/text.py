@@ -48,7 +48,7 @@ class TextFormat(Format):
 
     def certificate(self, d: Report) -> str:
         """Privacy, utility, population, the bounds, what was observed, targets, calibration, assumptions."""
-        lines = _certificate_head(d)
+        lines = [f"fairaudit certificate: {d['title'] or d['spec']}"] + [f"{k}: {v}" for k, v in certificate_facts(d)]
         lines += _bound_lines(d)
         if "observed" in d:
             lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
@@ -201,11 +201,6 @@ def _unparsed_line(d: Report) -> str:
         f"unparsed decision {u['decision']!s}: calibrated on the upper end of {measure(d)} over every utility of it "
         f"in [{fmt(lo)}, {fmt(hi)}], chosen per cell of the model, not on its stated utility\n"
     )
-
-
-def _certificate_head(d: Report) -> list[str]:
-    """Title, the privacy of the sensitive attribute and of the context, the utility and the population."""
-    return [f"fairaudit certificate: {d['title'] or d['spec']}"] + [f"{k}: {v}" for k, v in certificate_facts(d)]
 
 
 def _bound_lines(d: Report) -> list[str]:

@@ -149,6 +149,7 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
         choices=("historical", "test"),
         help="with --report impact-ratio: the data the audit uses, as the report states it (6 RCNY 5-303)",
     )
+    a.add_argument("--no-progress", dest="progress", action="store_false", help="no bar while DuckDB reads DATA")
     a.add_argument("--audit-date", metavar="YYYY-MM-DD", help="with --report impact-ratio: the audit's date")
     a.add_argument(
         "--distribution-date",
@@ -173,6 +174,7 @@ def run(args: argparse.Namespace) -> int:
     for name in ("sensitive", "outcome"):
         if getattr(args, name) is None:
             raise InputError(f"--{name}", "is required with DATA")
+    from fairaudit.base.progress import progress_shown
     from fairaudit.data.counts import count_file
     from fairaudit.statistics.intervals import IntervalOptions
     from fairaudit.statistics.record_audit import audit
@@ -185,14 +187,15 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("method", "chooses how intervals are made: give `confidence` too", args.method)
     # DuckDB counts the file (Parquet or CSV; fairaudit.data.counts.count_file); --count: DATA is a count table
     columns = {name: getattr(args, name) for name in ("sensitive", "outcome", "context", "dropna")}
-    table = count_file(
-        args.data,
-        **columns,
-        count=args.count,
-        csv=text_format(args),
-        weights=args.weights,
-        mixed_outcome=args.mixed_outcome or args.utility is not None,  # --utility: what each value is worth
-    )
+    with progress_shown(args.progress):  # (DuckDB's progress through the file, after half a second)
+        table = count_file(
+            args.data,
+            **columns,
+            count=args.count,
+            csv=text_format(args),
+            weights=args.weights,
+            mixed_outcome=args.mixed_outcome or args.utility is not None,  # --utility: what each value is worth
+        )
     report = None
     if args.report == "impact-ratio":
         from fairaudit.statistics.ll144 import AuditFacts, FourFifths, impact_ratios

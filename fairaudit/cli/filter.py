@@ -55,12 +55,14 @@ def add_parser(sub: Subparsers) -> None:
     )
     f.add_argument("--output", required=True, metavar="OUT", help="the file written (.csv, .tsv or .parquet)")
     f.add_argument("--parameters", metavar="FILTER.json", help="write the filter's parameters (its JSON) there")
+    f.add_argument("--no-progress", dest="progress", action="store_false", help="no bar while DuckDB reads DATA")
     add_text_format(f)
     f.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit filter``; returns the exit status."""
+    from fairaudit.base.progress import progress_shown
     from fairaudit.data.csv_format import file_kind
     from fairaudit.data.record_files import source
 
@@ -71,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
     # into text the other columns pass through as written ("NA" stays "NA", "007" stays "007"); into Parquet they
     # are typed as fairaudit reads them, their missing values null
     others = [n for n in records.names if n != args.column] if text_output else []
-    frame = records.read(as_written=others)  # a column the header names twice is refused where its copies differ
+    with progress_shown(args.progress):  # (DuckDB's progress through the file, after half a second)
+        frame = records.read(as_written=others)  # a column the header names twice is refused where its copies differ
     column = frame[args.column]
     missing = column.isna().to_numpy()
     if missing.any():

@@ -59,6 +59,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.errors import InputError, echo
+from fairaudit.base.progress import STEP_DELAY, progress_bar
 from fairaudit.data.csv_format import CsvFormat, FileKind, file_kind
 from fairaudit.data.key_values import ROWS_SHOWN, Locate
 
@@ -207,6 +208,46 @@ def interrupts_raised() -> Iterator[None]:
 
 
 @contextmanager
+def query_progress(con: Any, desc: str) -> Iterator[None]:
+    """Within the block, DuckDB's progress through its query on ``con`` as a bar on stderr, where bars are shown.
+
+    The bar is asked for with ``enabled=None`` (:func:`fairaudit.base.progress.progress_bar`: shown inside a
+    ``progress_shown`` block, as ``fairaudit audit`` and ``filter`` open unless ``--no-progress``), after
+    :data:`~fairaudit.base.progress.STEP_DELAY`. DuckDB tracks the progress (``enable_progress_bar``) without
+    printing its own bar (``enable_progress_bar_print``, which writes to stdout, where the report goes); a thread
+    reads ``query_progress()`` every 0.1 s, and the bar shows the furthest percentage of the block's queries.
+    """
+    import threading
+
+    with progress_bar(100, desc, unit="%", delay=STEP_DELAY, bar_format=_PERCENT_BAR) as bar:
+        if bar.disable:
+            yield
+            return
+        con.execute("SET enable_progress_bar = true; SET enable_progress_bar_print = false")
+        done = threading.Event()
+
+        def poll() -> None:
+            shown = 0
+            while not done.wait(0.1):
+                now = min(100, int(con.query_progress()))
+                if now > shown:
+                    bar.update(now - shown)
+                    shown = now
+
+        reader = threading.Thread(target=poll, name="fairaudit-duckdb-progress", daemon=True)
+        reader.start()
+        try:
+            yield
+        finally:
+            done.set()
+            reader.join()
+
+
+_PERCENT_BAR = "{desc}: {percentage:3.0f}% |{bar}| [{elapsed}]"
+"""The counting bar's line: DuckDB gives a percentage, not a count of steps, nor a rate worth showing."""
+
+
+@contextmanager
 def glob_free(paths: Sequence[str]) -> Iterator[list[str]]:
     """``paths`` (absolute) as DuckDB reads them: a name with a glob character goes through a symbolic link.
 
@@ -279,7 +320,7 @@ class Source:
 
         con = duckdb_connection()
         try:
-            with glob_free(self.files) as files, interrupts_raised():
+            with glob_free(self.files) as files, interrupts_raised(), query_progress(con, "reading DATA"):
                 parameters = {**self.parameters, "files": files}
                 try:
                     return work(con, parameters)

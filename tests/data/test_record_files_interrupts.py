@@ -1,4 +1,5 @@
-"""Ctrl-C inside DuckDB's counting: exit 130 within a second, the one ``interrupted`` line, nothing written.
+"""Ctrl-C inside DuckDB's counting: exit 130 within a second, the one ``interrupted`` line after the progress bar,
+nothing written.
 
 DuckDB takes SIGINT during a query itself: it interrupts the query and raises ``RuntimeError("Query interrupted")``
 (a traceback and exit status 1 before :func:`fairaudit.data.record_files.interrupts_raised`).
@@ -9,7 +10,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from _terminal import run_on_terminal
+from _terminal import lines_drawn, run_on_terminal
 
 from fairaudit.cli import CLEAR_LINE
 
@@ -38,12 +39,19 @@ def _after(seconds: float):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("command", ["audit", "filter"])
-def test_ctrl_c_inside_duckdb_ends_the_command_with_130_and_nothing_written(tmp_path, many_records, command):
+@pytest.mark.parametrize("progress", [True, False])
+def test_ctrl_c_inside_duckdb_ends_the_command_with_130_and_nothing_written(tmp_path, many_records, command, progress):
     out = tmp_path / ("report.txt" if command == "audit" else "released.csv")
     flags = ["--sensitive", "g", "--outcome", "y", "--context", "x"] if command == "audit" else []
     if command == "filter":
         flags = ["--column", "g", "--epsilon", "1", "--values", ",".join(map(str, range(1000)))]
+    flags += [] if progress else ["--no-progress"]
     run = run_on_terminal([command, str(many_records), *flags, "--output", str(out)], interrupt_when=_after(1.5))
     assert run.interrupted_after is not None and run.interrupted_after < 2.0, run.stderr
-    assert (run.code, run.stderr) == (130, f"{CLEAR_LINE}fairaudit: interrupted\r\n")
+    assert run.code == 130 and run.stderr.endswith(f"{CLEAR_LINE}fairaudit: interrupted\r\n"), run.stderr
+    # DuckDB's progress through the file, drawn after half a second (none with --no-progress), cleared at the end
+    shown = [int(line.split(":")[1].split("%")[0]) for line in lines_drawn(run.stderr) if line.startswith("reading")]
+    assert (len(shown) > 0) == progress and all(0 <= p <= 100 for p in shown), shown
+    if not progress:
+        assert run.stderr == f"{CLEAR_LINE}fairaudit: interrupted\r\n"
     assert list(tmp_path.iterdir()) == []  # no output, no temporary file

@@ -99,15 +99,7 @@ def local_search(
     screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
     if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
         upper = _lowered(upper, relaxed)
-    programs = ExactPrograms(problem, space.lo is not None, space.floors)
-
-    def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
-        x, a, b = triples[i]
-        return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
-
-    evidence = _Evidence.of(problem, "local", triples, space, screens)
-    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, "local", found, triples, space, evidence, pair)
+    return _searched(problem, "local", triples, space, pair, inexact, upper, closed, screens)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -157,14 +149,32 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
         upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
+    return _searched(problem, "global", global_triples, space, pair, inexact, upper, closed, screens)
+
+
+def _searched(
+    problem: ModelProblem,
+    kind: str,
+    triples: IntArray,
+    space: _ModelSpace,
+    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
+    inexact: int,
+    upper: FloatArray,
+    closed: FloatArray,
+    screens: FloatArray,
+) -> WorstCase:
+    """The search over the programs ``triples[i]`` = (x, a, b) (x = -1 for L̄), in decreasing order of ``upper``; each
+    solved by :func:`_solver`, exactly where its rounded form does not settle it, its proofs kept in :class:`_Evidence`
+    (none without floors: no ν to keep)."""
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
-        return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
+        x, a, b = (int(v) for v in triples[i])
+        return programs.solve(programs.local(x, a, b) if kind == "local" else programs.global_(a, b), rounded)
 
-    evidence = _Evidence.of(problem, "global", global_triples, space, screens)
+    evidence = _Evidence(problem, kind, triples, screens) if space.floors else None
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, "global", found, global_triples, space, evidence, pair)
+    return _model_case(problem, kind, found, triples, space, evidence, pair)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -358,23 +368,11 @@ def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
     """The polytope of the problem's programs, each product of an entry of M_A or M_X carrying the roundings the
     mechanism's floats carry relative to its exact law (randomized response's, computed from e^ε; a matrix is its own
     law)."""
-    entries = (problem.mechanism.matrix_roundings, problem.context_mechanism.matrix_roundings)
-    return _model_program(MA, problem.context_mechanism.matrix, problem.g, problem.live, problem.tau,
-                          problem.decision_only, problem.binding, entries)  # fmt: skip
-
-
-def _model_program(
-    MA: FloatArray,
-    MX: FloatArray,
-    g: FloatArray,
-    live: BoolArray,
-    tau: float | None,
-    u_only: bool,
-    with_tau: bool,
-    entries: tuple[int, int],
-) -> _ModelSpace:
     import scipy.sparse as sp
 
+    MX, g, live, tau = problem.context_mechanism.matrix, problem.g, problem.live, problem.tau
+    u_only = problem.decision_only
+    entries = (problem.mechanism.matrix_roundings, problem.context_mechanism.matrix_roundings)
     nX, nA, nU = g.shape
     nXr, nAr = MX.shape[1], MA.shape[1]
     xs = np.flatnonzero(live)
@@ -420,12 +418,12 @@ def _model_program(
 
         a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
         equalities = [(a_eq, np.ones(nXr * nAr), "eq")]
-    # the τ rows (G-space: τ above E[g]'s least, ``with_tau``), rounded up for the program (a relaxation) and down
-    # for the witness's constraint
+    # the τ rows (G-space: τ above E[g]'s least, ``problem.binding``), rounded up for the program (a relaxation) and
+    # down for the witness's constraint
     rows: FloatArray | None = None
     outer: FloatArray | None = None
     below: list[Any] = []
-    if with_tau and tau is not None and (u_only or tau > 0):
+    if problem.binding and tau is not None and (u_only or tau > 0):
         pairs = [(x, b) for x in xs for b in range(nA)]
 
         def stacked(f: Callable[[SupportsIndex, SupportsIndex], npt.NDArray[Any]]) -> npt.NDArray[Any]:
@@ -462,19 +460,13 @@ class _Evidence:
     programs an LP bounded, where floors bind (without them the LP's rows are the simplex's, whose multipliers are
     no floors' ν). The floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps
     its context's only behind the identity on the context (every context's floors bind its rows otherwise).
-    :meth:`of` gives None without floors (the bound without them is the value)."""
+    None without floors (the bound without them is the value)."""
 
     def __init__(self, problem: ModelProblem, kind: str, triples: IntArray, screens: FloatArray | None) -> None:
         self.problem, self.kind, self.triples = problem, kind, triples
         self.live = np.flatnonzero(problem.live)
         self.duals: list[ProgramDual] = []
         self.screens = screens  # each program's one-floor threshold θ (NaN: none)
-
-    @classmethod
-    def of(
-        cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace, screens: FloatArray | None = None
-    ) -> _Evidence | None:
-        return cls(problem, kind, triples, screens) if space.floors else None  # (no floors: no ν to keep)
 
     def keep(self, i: int, r: FractionalResult) -> None:
         """Program i's dual, when an LP's dual certified its value."""

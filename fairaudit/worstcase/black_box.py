@@ -192,6 +192,17 @@ def _class_problem(
         raise InputError(
             "method", "the threshold solution needs tau <= lower (times M_A's least row sum) and lipschitz = 0", method
         )
+    # the mechanism's assumptions (and X ⊥ A on ``population``), then the class vouched for
+    assumptions = check_assumptions(mechanism, population=population) + (
+        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
+        Assumption(
+            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
+            "vouched",
+            f"L_A = {lip:g}" if lip_on else "L_A = 0",
+        ),
+    )
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
     problem = _ClassProblem(
         mechanism=mechanism,
         lower=lower,
@@ -202,7 +213,7 @@ def _class_problem(
         binding=binding,
         lipschitz_on=lip_on,
         method=method,
-        assumptions=_class_assumptions(mechanism, population, lower, gamma, tau, lip, lip_on),
+        assumptions=assumptions,
     )
     return problem, rr, metric, d
 
@@ -239,29 +250,6 @@ def _on_unit_scale(
         witness=unit.witness if exact else math.nan,
         gap=unit.gap if exact else math.nan,
     )
-
-
-def _class_assumptions(
-    mechanism: Mechanism,
-    population: Population | None,
-    lower: float,
-    gamma: float,
-    tau: float | None,
-    lip: float,
-    lip_on: bool,
-) -> tuple[Assumption, ...]:
-    """The assumptions of a class certificate: the mechanism's (and X ⊥ A on ``population``), then the class vouched for."""
-    assumptions = check_assumptions(mechanism, population=population) + (
-        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
-        Assumption(
-            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
-            "vouched",
-            f"L_A = {lip:g}" if lip_on else "L_A = 0",
-        ),
-    )
-    if tau is not None:
-        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
-    return assumptions
 
 
 @dataclass(frozen=True, kw_only=True)

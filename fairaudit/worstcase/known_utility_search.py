@@ -184,14 +184,23 @@ def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundi
     exact ratio is at most (1 + γ)/(1 − γ) ≤ 1 + 3γ times the computed one, and a point with P[b]·h ≥ τ has
     P̂[b]·h ≥ (1 − γ)τ, the floor the relaxation keeps.
     """
-    gamma = float(rounding_error(roundings))
     if floor is None:
-        v = pairwise_box(P, lo, hi, None)[0]
-    else:
-        relaxed = pairwise_box(P, lo, hi, float(down(floor * (1 - gamma))) if roundings else floor)[1]
-        assert relaxed is not None  # (a floor was given)
-        v = relaxed
-    return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
+        return _widened(pairwise_box(P, lo, hi, None)[0], roundings)
+    relaxed = pairwise_box(P, lo, hi, _kept_floor(floor, roundings))[1]
+    assert relaxed is not None  # (a floor was given)
+    return _widened(relaxed, roundings)
+
+
+def _kept_floor(floor: float, roundings: int) -> float:
+    """The floor a relaxation on coefficients computed with ``roundings`` roundings keeps: (1 − γ)·``floor`` rounded
+    down, γ = ``rounding_error(roundings)`` (P̂[b]·h ≥ (1 − γ)τ where P[b]·h ≥ τ); ``floor`` itself when exact."""
+    return float(down(floor * (1 - float(rounding_error(roundings))))) if roundings else floor
+
+
+def _widened(v: FloatArray, roundings: int) -> FloatArray:
+    """Upper bounds ``v`` on the computed coefficients' ratios widened to the exact ones': times 1 + 3γ (the ratio's
+    error (1 + γ)/(1 − γ) ≤ 1 + 3γ, γ = ``rounding_error(roundings)``), rounded up; ``v`` itself when exact."""
+    return np.asarray(widen_up(v, 3 * float(rounding_error(roundings)))) if roundings else v
 
 
 def _as_table(P: FloatArray, space: _ModelSpace, g: FloatArray) -> tuple[FloatArray, int]:
@@ -210,14 +219,13 @@ def _table_relaxation(P: FloatArray, n_u: int, tau: float | None, roundings: int
     (:func:`~fairaudit.base.table_relaxation.relaxation_bounds`) on the computed coefficients, then widened as
     :func:`_relaxation`'s for their roundings (the floor kept is (1 − γ)τ, rounded down); and the threshold θ that
     proves each (to nearest; NaN without a floor), which the certificate records (``screens``)."""
-    gamma = float(rounding_error(roundings))
-    t = None if not tau else Fraction(float(down(tau * (1 - gamma))) if roundings else tau)
+    t = None if not tau else Fraction(_kept_floor(tau, roundings))
     forms = {a: [[Fraction(v) for v in row] for row in P[a].reshape(-1, n_u).tolist()] for a in range(len(P))}
     v, theta = np.full((len(P), len(P)), np.inf), np.full((len(P), len(P)), np.nan)
     for (a, b), (bound, at) in relaxation_bounds(forms, dict.fromkeys(forms, t)).items():
         v[a, b] = fraction_up(bound) if bound != math.inf else np.inf
         theta[a, b] = np.nan if at is None else float(at)
-    return (np.asarray(widen_up(v, 3 * gamma)) if roundings else v), theta
+    return _widened(v, roundings), theta
 
 
 def _lowered(upper: FloatArray, relaxed: FloatArray) -> FloatArray:
@@ -278,9 +286,7 @@ def _solver(
         return pair(i)[1].low
 
     if space.lo is not None and space.hi is not None and problem.method != "lp":
-        tau = None if space.rows is None else problem.tau
-        if tau is not None and roundings:
-            tau = float(down(tau * (1 - float(rounding_error(roundings)))))  # P̂[b]·h ≥ (1 − γ)τ where P[b]·h ≥ τ
+        tau = None if space.rows is None or problem.tau is None else _kept_floor(problem.tau, roundings)
         inner = relaxed_first(num, den, space.lo, space.hi, tau, space.rows, space.program)
     else:
 

@@ -403,29 +403,41 @@ def white_box(
     (:func:`fairaudit.metrics.utility_range.fairness_range`; ``proofs/unparsed.md`` §5); when the kernel puts no mass on
     that decision the range is a point and the function is L (L̄) itself, as without it.
     """
+    from fairaudit.metrics.utility_range import fairness_range
+
     target, kind = common.target, common.kind
     limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
     measure = local_fairness if kind == "local" else global_fairness
     name = "L" if kind == "local" else "L-bar"
 
-    def stated(eps: float) -> float:
+    unparsed = None if unparsed_decision is None else _decision_index(kernel, unparsed_decision)
+    if unparsed is not None and np.any(np.nan_to_num(kernel.probabilities[..., unparsed], nan=0.0) > 0):
+        label = format_label(kernel.decisions[unparsed])
+        name = f"upper end of {name} over every utility of {label!r} in [min g, max g]"
+    else:
+        unparsed = None  # (no mass on it: its utility's range is a point, the value is L itself)
+
+    def value(eps: float) -> float:
+        """L (L̄) behind ``family(eps)``, or its upper end over every utility of the unparsed decision."""
         try:
-            law = _law(kernel, family(eps), context_mechanism)
+            if unparsed is None:
+                law = _law(kernel, family(eps), context_mechanism)
+            else:
+                r = fairness_range(
+                    kernel, utility, unparsed, sensitive_mechanism=family(eps), context_mechanism=context_mechanism,
+                    population=population, lower_end=False,
+                )  # fmt: skip
         except InputError as exc:
             raise exc.under("kernel", keep_own=True) from None
-        v = measure(law, utility, population).value
+        if unparsed is None:
+            v = measure(law, utility, population).value
+        else:
+            v = (r.local_fairness if kind == "local" else r.global_fairness).upper
         return math.inf if math.isnan(v) else v
-
-    value: Callable[[float], float] = stated
-    if unparsed_decision is not None:
-        d = _decision_index(kernel, unparsed_decision)
-        if np.any(np.nan_to_num(kernel.probabilities[..., d], nan=0.0) > 0):
-            value = _upper_end(kind, family, kernel, utility, d, population, context_mechanism)
-            name = f"upper end of {name} over every utility of {format_label(kernel.decisions[d])!r} in [min g, max g]"
 
     monotone = (
         family.mixing
-        and value is stated
+        and unparsed is None
         and not utility.depends_on_group
         and (kind == "local" or population is None or _independent_and_whole(population))
     )
@@ -455,32 +467,6 @@ def _decision_index(kernel: Kernel, decision: int) -> int:
     if isinstance(decision, bool) or not isinstance(decision, (int, np.integer)) or not -n <= decision < n:
         raise InputError("unparsed_decision", f"must index one of the kernel's {n} decisions", decision)
     return int(decision) % n
-
-
-def _upper_end(
-    kind: str,
-    family: MechanismFamily,
-    kernel: Kernel,
-    utility: Utility,
-    decision: int,
-    population: Population | None,
-    context_mechanism: Mechanism | None,
-) -> Callable[[float], float]:
-    """ε ↦ the upper end of L (L̄) behind ``family(ε)`` over every utility of ``decision`` in [min g, max g]."""
-    from fairaudit.metrics.utility_range import fairness_range
-
-    def upper(eps: float) -> float:
-        try:
-            r = fairness_range(
-                kernel, utility, decision, sensitive_mechanism=family(eps), context_mechanism=context_mechanism,
-                population=population, lower_end=False,
-            )  # fmt: skip
-        except InputError as exc:
-            raise exc.under("kernel", keep_own=True) from None
-        v = (r.local_fairness if kind == "local" else r.global_fairness).upper
-        return math.inf if math.isnan(v) else v
-
-    return upper
 
 
 RR_COMPOSE_LIMIT = 512  # groups; above, white-box calibration behind randomized response never builds its matrix

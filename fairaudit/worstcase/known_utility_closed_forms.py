@@ -91,9 +91,7 @@ def randomized_response_cases(
     if independent and decision_only:
         lo, hi = float(lo_x[0]), float(hi_x[0])
         w = rr_box(rr, lo, hi, floor)
-        n_released_contexts = problem.n_released_contexts
-        high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
-        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, high, low)
+        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, hot_hi[0], hot_lo[0])
         case = _rr_case(problem, "global", w, None, kern)
         a, b = (case.group, case.other_group)
         pair = (problem.groups.index(a), problem.groups.index(b))
@@ -118,7 +116,7 @@ def _rr_local(
     With a binding τ, §3 Proposition 3b per context, on the floor :func:`_floor_behind` gives. ``hot_hi``/``hot_lo``:
     the one-hot rows of the decisions of largest and smallest g per context.
     """
-    live, n_released_contexts = problem.live, problem.n_released_contexts
+    live = problem.live
     ranges, range_of = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
     range_of = range_of.ravel()
     best_x, best_w = -1, None
@@ -131,14 +129,11 @@ def _rr_local(
     assert best_w is not None  # (some context is live)
     lo, hi = float(lo_x[best_x]), float(hi_x[best_x])
     if not problem.binding:  # the threshold kernel of the maximising context, in every released context
-        high = np.repeat(hot_hi[best_x][None], n_released_contexts, 0)
-        low = np.repeat(hot_lo[best_x][None], n_released_contexts, 0)
-        kern = _rr_kernel(problem, best_w, lo, hi, None, high, low)
+        kern = _rr_kernel(problem, best_w, lo, hi, None, hot_hi[best_x], hot_lo[best_x])
     elif problem.same_x:
         kern = _rr_kernel(problem, best_w, lo, hi, best_x, hot_hi, hot_lo)
     else:  # g(u) behind a context filter: the same h in every released context
-        high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
-        kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, high, low)
+        kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, hot_hi[0], hot_lo[0])
     case = _rr_case(problem, "local", best_w, best_x, kern)
     # each live context's proof for the pair (0, 1), which stands for every pair (``proofs/verification.md`` §4), and
     # the maximiser's point, exactly, where the floor binds (verify reads the lower end off it)
@@ -184,10 +179,12 @@ def _rr_kernel(
 ) -> Kernel:
     """The worst kernel behind k-ary RR.
 
-    At context x (every context when None) the mix of the decisions ``high``/``low`` that gives h; every other
-    context all ``high`` (so it meets τ); a threshold h as one-hot rows.
+    At context x (every context when None) the mix of the decisions ``high``/``low`` (one-hot rows per released
+    context, or one row for all of them) that gives h; every other context all ``high`` (so it meets τ); a threshold
+    h as one-hot rows.
     """
     nXr, nAr, nU = problem.n_released_contexts, problem.n_released_groups, problem.g.shape[2]
+    high, low = np.broadcast_to(high, (nXr, nU)), np.broadcast_to(low, (nXr, nU))
     h = w.vector(nAr)
     frac = np.clip((h - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones(nAr)
     table = np.zeros((nXr, nAr, nU))

@@ -61,7 +61,7 @@ def local_search(
     reach_hi, reach_lo = problem.reach
     closed = np.full(len(triples), np.inf)  # the closed-form bounds, each rounded up from E[g | x, a]'s bounds
     if tau is not None and tau > 0:
-        closed = np.minimum(closed, up(reach_hi[triples[:, 0], triples[:, 1]] / tau))
+        closed = up(reach_hi[triples[:, 0], triples[:, 1]] / tau)
     coefficients = [[_Coefficients.of(space, x, b) for b in range(nA)] if live[x] else [] for x in range(g.shape[0])]
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
@@ -78,24 +78,18 @@ def local_search(
         closed = np.minimum(closed, crude)
     upper = np.minimum(upper, closed)
     inexact = max((c.roundings for row in coefficients for c in row), default=0)
-    if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
-        # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
-        for context in xs:
-            P = np.stack([c.value for c in coefficients[context]])
-            v = _relaxation(P, space.lo, space.hi, floor, inexact)
-            at = triples[:, 0] == context
-            upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
     screens = np.full(len(triples), np.nan)  # each program's one-floor threshold θ, for the certificate
-    # every program's proof over the model's table, which verify checks: its one-floor threshold θ
     relaxed = np.full(len(triples), np.inf)
     for context in xs:
-        v, theta = _table_relaxation(
-            *_as_table(np.stack([c.value for c in coefficients[context]]), space, g),
-            tau,
-            inexact + (space.lo is not None),
-        )
+        P = np.stack([c.value for c in coefficients[context]])
         at = triples[:, 0] == context
-        relaxed[at], screens[at] = v[triples[at, 1], triples[at, 2]], theta[triples[at, 1], triples[at, 2]]
+        a, b = triples[at, 1], triples[at, 2]
+        if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
+            # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
+            upper[at] = np.minimum(upper[at], _relaxation(P, space.lo, space.hi, floor, inexact)[a, b])
+        # every program's proof over the model's table, which verify checks: its one-floor threshold θ
+        v, theta = _table_relaxation(*_as_table(P, space, g), tau, inexact + (space.lo is not None))
+        relaxed[at], screens[at] = v[a, b], theta[a, b]
     screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
     if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
         upper = _lowered(upper, relaxed)

@@ -495,10 +495,7 @@ def _ratio_pairs(matrix: FloatArray, hi: float) -> BoxPairs:
     parts: Parts = []
     fill = float(rowbest[rowbest < threshold].max(initial=-np.inf))  # the largest bound of a pair set aside
     for a in np.flatnonzero(rowbest >= threshold):
-        ratio = np.empty(n)
-        for s in range(0, n, step):
-            ratio[s : s + step] = _ratios(matrix[a], matrix[s : s + step]).max(axis=-1, initial=0.0)
-        ratio = np.maximum(ratio, 1.0) * (1 + 1e-12)
+        ratio = np.maximum(pair_ratio(matrix, np.full(n, a), np.arange(n)), 1.0) * (1 + 1e-12)
         ratio[a] = -np.inf
         bs = np.flatnonzero(ratio >= threshold)
         fill = max(fill, float(ratio[ratio < threshold].max(initial=-np.inf)))

@@ -14,6 +14,7 @@ program of at most 10 variables there, at t = ``exp_up`` (ε) ≥ e^ε (the wors
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
@@ -166,16 +167,15 @@ def _full(
     n, m = len(rows), len(rows[0])
     a_ub: Rows = []
     b_ub: list[Fraction] = []
-    for b in range(n):
-        for c in range(b + 1, n):
-            if lip * d[b][c] >= gamma - lower:
-                continue  # implied by the box, not recorded
-            for o in range(m):
-                for sign in (1, -1):
-                    row = [Fraction(0)] * (n * m)
-                    row[b * m + o], row[c * m + o] = Fraction(sign), Fraction(-sign)
-                    a_ub.append(row)
-                    b_ub.append(lip * d[b][c])
+    for b, c in itertools.combinations(range(n), 2):
+        if lip * d[b][c] >= gamma - lower:
+            continue  # implied by the box, not recorded
+        for o in range(m):
+            for sign in (1, -1):
+                row = [Fraction(0)] * (n * m)
+                row[b * m + o], row[c * m + o] = Fraction(sign), Fraction(-sign)
+                a_ub.append(row)
+                b_ub.append(lip * d[b][c])
     if floor is not None:
         for b in range(n):
             row = [Fraction(0)] * (n * m)
@@ -183,12 +183,10 @@ def _full(
             a_ub.append(row)
             b_ub.append(-floor)
     pairs: Pairs = {}
-    for a in range(n):
-        for b in range(n):
-            if a != b:
-                p, q = [Fraction(0)] * (n * m), [Fraction(0)] * (n * m)
-                p[a * m : (a + 1) * m], q[b * m : (b + 1) * m] = rows[a], rows[b]
-                pairs[(a, b)] = (p, q)
+    for a, b in itertools.permutations(range(n), 2):
+        p, q = [Fraction(0)] * (n * m), [Fraction(0)] * (n * m)
+        p[a * m : (a + 1) * m], q[b * m : (b + 1) * m] = rows[a], rows[b]
+        pairs[(a, b)] = (p, q)
     return a_ub, b_ub, pairs
 
 

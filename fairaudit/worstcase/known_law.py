@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 import numpy as np
@@ -184,7 +183,7 @@ def worst_utility(
         b_ub=None if a_ub is None or tau is None else np.full(a_ub.shape[0], -tau),
     )
     # (a pair (a, b), a != b, is compared where both rows are: no (n, n) masks, no (n, n, n_decisions) tables)
-    local = _utility_case(problem, "local", Qz, cell, lambda x: None if x is None else law.contexts[x])
+    local = _utility_case(problem, "local", Qz, cell)
     pu = np.nan_to_num(group_decision_law(law, population), nan=0.0)
     has = population.p_group > 0
     # P(u | a) = Σ_x P(x | a) Q[x, a, u]: P(x | a) carries n_x roundings, the product one, the sum n_x − 1; exact
@@ -192,9 +191,7 @@ def worst_utility(
     weights = population.probabilities > 0
     roundings = 2 * law.shape[0] + 1 if np.any(weights.sum(axis=0) > 1) else 0
     ends = product_ends(pu, roundings, np.any(weights[:, :, None] & (Qz > 0), axis=0))
-    global_ = _utility_case(
-        problem, "global", pu[None], has[None], lambda x: None, (ends[0][None], ends[1][None]), roundings
-    )
+    global_ = _utility_case(problem, "global", pu[None], has[None], (ends[0][None], ends[1][None]), roundings)
     return WorstUtility(
         local_fairness=local,
         global_fairness=global_,
@@ -235,7 +232,6 @@ def _utility_case(
     kind: str,
     P: FloatArray,
     rows: BoolArray,
-    label_x: Callable[[int | None], Hashable],
     ends: tuple[FloatArray, FloatArray] | None = None,
     roundings: int = 0,
 ) -> WorstCase:
@@ -272,7 +268,7 @@ def _utility_case(
             kind,
             ratio,
             nats_up(ratio),
-            context=label_x(x if kind == "local" else None),
+            context=problem.law.contexts[x] if kind == "local" else None,
             group=groups[a],
             other_group=groups[b],
             utility=problem.utility(h),
@@ -293,16 +289,18 @@ def _utility_case(
         r = problem.program.solve(high[x, a], low[x, b])
         return r if ends is None else inner_witness(r, low[x, a], high[x, b], inner)
 
-    found = search(upper, solve)
-    if found.index < 0:
-        return WorstCase.unmet(kind, found, "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""))
-    r = found.result
+    searched = search(upper, solve)
+    if searched.index < 0:
+        return WorstCase.unmet(
+            kind, searched, "no utility in the class meets E[g | x, a] >= tau: " + (searched.reason or "")
+        )
+    r = searched.result
     assert r is not None  # a maximising pair was found
-    x, a, b = flat[found.index]
+    x, a, b = flat[searched.index]
     return WorstCase.searched(
         kind,
-        found,
-        context=label_x(x if kind == "local" else None),
+        searched,
+        context=problem.law.contexts[x] if kind == "local" else None,
         group=groups[a],
         other_group=groups[b],
         utility=problem.utility(r.argmax) if r.argmax is not None else None,

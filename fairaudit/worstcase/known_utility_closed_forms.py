@@ -148,14 +148,7 @@ def _screens(
     problem: ModelProblem, thetas: Sequence[tuple[int | None, Fraction | None]], a: int, b: int
 ) -> tuple[ProgramDual, ...]:
     """The one-floor thresholds θ of the pair (a, b)'s programs (context x, or None for L̄), for the certificate."""
-    groups, contexts = problem.groups, problem.contexts
-    return tuple(
-        ProgramDual(
-            context=None if x is None else contexts[x], group=groups[a], other_group=groups[b], floors=None, theta=theta
-        )
-        for x, theta in thetas
-        if theta is not None
-    )
+    return tuple(problem.dual(x, a, b, theta=theta) for x, theta in thetas if theta is not None)
 
 
 def _floor_behind(problem: ModelProblem) -> float:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any, SupportsIndex
 
 import numpy as np
@@ -30,7 +31,7 @@ from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import check_method
 from fairaudit.worstcase.randomized_response import rr_law
-from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
+from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, WorstModel
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -111,6 +112,15 @@ class ModelProblem:
             return expected_utility(law, self.utility)
         with np.errstate(over="ignore"):  # (ratios of utilities as small as e^-710 overflow; only E[g | a] is kept)
             return global_fairness(law, self.utility, self.population).expected_utility
+
+    def dual(
+        self, x: int | None, a: int, b: int, floors: FloatArray | None = None, theta: float | Fraction | None = None
+    ) -> ProgramDual:
+        """The proof of the program at context x (None for L̄) for the pair (a, b): the floors' ν or a screen's θ."""
+        context = None if x is None else self.contexts[x]
+        return ProgramDual(
+            context=context, group=self.groups[a], other_group=self.groups[b], floors=floors, theta=theta
+        )
 
     def result(self, local: WorstCase, global_: WorstCase) -> WorstModel:
         return WorstModel(

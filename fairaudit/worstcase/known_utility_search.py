@@ -484,23 +484,20 @@ class _Evidence:
             floors[self.live] = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0).reshape(self.live.size, n_a)
         x, a, b = (int(v) for v in self.triples[i])
         local = self.kind == "local"
-        groups = self.problem.groups
         own = local and self.problem.same_x  # (L at x binds the rows of x alone)
-        self.duals.append(ProgramDual(context=self.problem.contexts[x] if local else None, group=groups[a],
-                                      other_group=groups[b], floors=floors[x] if own else floors))  # fmt: skip
+        self.duals.append(self.problem.dual(x if local else None, a, b, floors=floors[x] if own else floors))
 
     def all(self) -> tuple[ProgramDual, ...]:
         """The LP's multipliers kept, then every program's screen threshold θ (verify takes the least bound of the
         two: a value lowered to its closed-form bound, below what the LP's multipliers prove, rests on θ)."""
         if self.screens is None:
             return tuple(self.duals)
-        groups, contexts, local = self.problem.groups, self.problem.contexts, self.kind == "local"
+        local = self.kind == "local"
         screens = [
-            ProgramDual(context=contexts[x] if local else None, group=groups[a], other_group=groups[b], floors=None,
-                        theta=float(self.screens[i]))
+            self.problem.dual(x if local else None, a, b, theta=float(self.screens[i]))
             for i, (x, a, b) in enumerate(self.triples.tolist())
             if not math.isnan(self.screens[i])
-        ]  # fmt: skip
+        ]
         return (*self.duals, *screens)
 
 

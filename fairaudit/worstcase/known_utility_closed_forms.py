@@ -220,10 +220,10 @@ def boxes_by_range(problem: ModelProblem, MA: FloatArray) -> tuple[FloatArray, I
     g(u)). Returns the ranges (n_ranges, 2), the range of each context, and the values (n_ranges, nA, nA), so
     that box[x] = values[range_of[x]]; -inf on the diagonal. (Only the local search uses them.)
     """
-    g, gmin, gmax = problem.g, problem.gmin, problem.gmax
+    g = problem.g
     nX, nA = g.shape[:2]
-    if problem.utility.values.ndim == 1:
-        ranges, range_of = np.array([[gmin[0], gmax[0]]]), np.zeros(nX, dtype=np.intp)
+    if problem.utility.values.ndim == 1:  # (g[x, a] is g(u) in every cell)
+        ranges, range_of = np.array([[g[0, 0].min(), g[0, 0].max()]]), np.zeros(nX, dtype=np.intp)
     else:
         ranges, range_of = np.unique(
             np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0, return_inverse=True

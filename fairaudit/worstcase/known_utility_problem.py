@@ -50,8 +50,6 @@ class ModelProblem:
     floor: float  # τ, or -inf without one
     group_free: bool  # g does not depend on the group
     decision_only: bool  # g depends on the decision only
-    gmin: FloatArray  # min and max of g per context
-    gmax: FloatArray
     binding: bool  # τ > E[g | x, a]'s least value (reach) in some live context and group
     independent: bool  # X ⊥ A in the population, exactly (its fast paths use one weight P(x) per context)
     assumptions: tuple[Assumption, ...]
@@ -176,13 +174,8 @@ def model_problem(
             (list(map(format_label, population.contexts)), list(map(format_label, population.groups))),
         )
     g = np.asarray(utility.table(contexts, groups, utility.decisions), dtype=float)  # (nX, nA, nU), a view for g(u)
-    nX = g.shape[0]
     live = population.p_context > 0
     floor = -math.inf if tau is None else tau
-    if utility.values.ndim == 1:
-        gmin, gmax = np.full(nX, float(utility.values.min())), np.full(nX, float(utility.values.max()))
-    else:
-        gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))  # per context
     assumptions = check_assumptions(mechanism, population=population) + (
         Assumption("g is the given utility", "checked", f"{utility!r}"),
     )
@@ -201,8 +194,6 @@ def model_problem(
         floor=floor,
         group_free=not utility.depends_on_group,
         decision_only=utility.values.ndim == 1 or not (utility.depends_on_group or utility.depends_on_context),
-        gmin=gmin,
-        gmax=gmax,
         binding=bool(np.any(floor > utility_reach(g, mechanism, context_mechanism)[1][live])),
         independent=exactly_independent(population.probabilities),
         assumptions=assumptions,

@@ -107,16 +107,15 @@ def closed_form(common: Common, method: str) -> Found:
     x = (Fraction(lip) * Fraction(diam) + Fraction(delta) * Fraction(gamma)) / Fraction(tau)
     if method == "paper":
         eps = max(0.0, fraction_down(Fraction(target) - Fraction(log_up(1 + x))))
-        bound = main_theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = target - log(1 + (L_A*diam + delta*gamma)/tau) = {target:.6g} - {floor:.6g}"
     else:
         inside = 1 - x * Fraction(exp_up(-target))  # e^target − x = e^target (1 − x e^−target)
         eps = max(0.0, fraction_down(Fraction(target) + Fraction(log_down(inside)))) if inside > 0 else 0.0
-        bound = main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = log(e^target - (L_A*diam + delta*gamma)/tau) = log(e^{target:.6g} - {c / tau:.6g})"
+    theorem = main_theorem if method == "paper" else main_theorem_tight
     return Found(
         eps,
-        bound,
+        theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam),
         f"closed form of the {method} bound, {form}; it certifies every "
         f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)",
     )
@@ -357,12 +356,11 @@ def black_box_global(
         g = from_table([common.gamma, common.lower], ("high", "low"), name="class [lower, gamma]")
     else:
         g = utility
-    kwargs: dict[str, Any] = {"population": population, "context_mechanism": context_mechanism}
-    if not math.isnan(tau):
-        kwargs["tau"] = tau
+    floor = None if math.isnan(tau) else tau
 
     def bound(eps: float) -> float:
-        v = worst_model(family(eps), g, **kwargs).global_fairness.value
+        model = worst_model(family(eps), g, population=population, context_mechanism=context_mechanism, tau=floor)
+        v = model.global_fairness.value
         return math.inf if math.isnan(v) else v
 
     cls = f"{g.name}" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")

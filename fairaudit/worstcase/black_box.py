@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
 
@@ -146,7 +146,7 @@ def black_box_bound(
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
         m = len(mechanism.outputs)
         return problem.certificate(
-            1.0, None, None, (), np.full(m, gamma), status="trivial", solver_status="threshold", reason=reason
+            1.0, None, (), np.full(m, gamma), status="trivial", solver_status="threshold", reason=reason
         )
     if rr is not None:
         closed = _randomized_response_certificate(problem, rr, d)
@@ -270,9 +270,8 @@ class _ClassProblem:
     def certificate(
         self,
         ratio: float,
-        group: Hashable | None,
-        other_group: Hashable | None,
-        released: tuple,
+        pair: tuple[int, int] | None,
+        top: IntArray | Sequence[int],
         utility_by_release: FloatArray,
         method: str = "threshold",
         status: str = "optimal",
@@ -283,19 +282,22 @@ class _ClassProblem:
         value: float | None = None,
         result: FractionalResult | None = None,
     ) -> BlackBoxCertificate:
-        """The certificate of a maximiser; ``value`` (nats) defaults to the log of ``ratio`` rounded up (NaN stays NaN).
+        """The certificate of a maximiser: the ordered ``pair`` of groups (indices; None without one), the released
+        values (indices ``top``) where h is γ; ``value`` (nats) defaults to the log of ``ratio`` rounded up (NaN stays
+        NaN).
 
         The defaults are a closed form's: no program solved. ``result``: the maximiser's program, whose certification,
         witness and gap the certificate repeats.
         """
         if value is None:
             value = nats_up(ratio)
+        inputs, outputs = self.mechanism.inputs, self.mechanism.outputs
         return BlackBoxCertificate(
             value=value,
             ratio=ratio,
-            group=group,
-            other_group=other_group,
-            released=released,
+            group=None if pair is None else inputs[pair[0]],
+            other_group=None if pair is None else inputs[pair[1]],
+            released=tuple(outputs[o] for o in top),
             utility_by_release=utility_by_release,
             lower=self.lower,
             gamma=self.gamma,
@@ -322,16 +324,14 @@ def _randomized_response_certificate(
     None where no closed form applies (L_A > 0, a binding τ and a metric other than the discrete one).
     """
     lower, gamma, floor, lip = problem.lower, problem.gamma, problem.floor, problem.lipschitz
-    outputs, inputs = problem.mechanism.outputs, problem.mechanism.inputs
-    n, m = len(inputs), len(outputs)
+    n, m = len(problem.mechanism.inputs), len(problem.mechanism.outputs)
     if not problem.lipschitz_on:
         w = rr_box(rr, lower, gamma, floor)
         inf = math.isinf(w.value)
         return problem.certificate(
             w.ratio,
-            inputs[0],
-            inputs[1],
-            tuple(outputs[o] for o in w.released(n, gamma)),
+            (0, 1),
+            w.released(n, gamma),
             w.vector(n),
             status="unbounded" if inf else "optimal",
             solver_status="threshold" if w.prefix else "closed form",
@@ -343,7 +343,7 @@ def _randomized_response_certificate(
     if not discrete and problem.binding:
         return None
     # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
-    a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
+    a, b = (0, 1) if d is None or discrete else map(int, np.unravel_index(int(np.argmax(d)), d.shape))
     dmax = 1.0 if off_diagonal is None else float(off_diagonal.max())
     g = Fraction(gamma)  # every piece's program exactly, at t = exp_up(ε), on the scale γ = 1
     exact, point = rr_lipschitz_ratio(rr.k, rr.epsilon, Fraction(lower) / g, Fraction(1), Fraction(floor) / g,
@@ -351,8 +351,7 @@ def _randomized_response_certificate(
     if exact == math.inf:
         return problem.certificate(
             math.inf,
-            inputs[a],
-            inputs[b],
+            (a, b),
             (),
             np.full((n, m), math.nan),
             status="unbounded",
@@ -372,8 +371,7 @@ def _randomized_response_certificate(
         h = np.clip(np.minimum(f[None, :] + lip * d[:, a, None], g[None, :] + lip * d[:, b, None]), lower, gamma)
     h[a], h[b] = f, g
     top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
-    released = tuple(outputs[o] for o in top)
-    return problem.certificate(ratio, inputs[a], inputs[b], released, h, value=log_up(exact))
+    return problem.certificate(ratio, (a, b), top, h, value=log_up(exact))
 
 
 def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
@@ -388,11 +386,7 @@ def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPair
     ratio = float(found.box[i])
     status = "unbounded" if math.isinf(ratio) else "optimal"
     reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
-    inputs, outputs = problem.mechanism.inputs, problem.mechanism.outputs
-    released = tuple(outputs[o] for o in top)
-    return problem.certificate(
-        ratio, inputs[a], inputs[b], released, h, status=status, solver_status="threshold", reason=reason
-    )
+    return problem.certificate(ratio, (a, b), top, h, status=status, solver_status="threshold", reason=reason)
 
 
 def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
@@ -525,7 +519,6 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
         return problem.certificate(
             math.nan,
             None,
-            None,
             (),
             np.full(m, math.nan),
             method="lp",
@@ -536,20 +529,17 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
             programs_solved=found.solved,
         )
     assert r is not None  # a maximising pair was found
-    a, b = pairs[found.index]
-    outputs = problem.mechanism.outputs
+    a, b = (int(v) for v in pairs[found.index])
     if r.argmax is None:
         h = np.full(m if not lip_on else (n, m), math.nan)
-        released: tuple = ()
+        top = np.zeros(0, dtype=np.intp)
     else:
         h = r.argmax if not lip_on else r.argmax.reshape(n, m)
         h = np.clip(h, lower, gamma)
-        row = h if not lip_on else h[a]
-        released = tuple(outputs[o] for o in np.flatnonzero(row >= gamma - 1e-9 * max(1.0, gamma)))
-    inputs = problem.mechanism.inputs
+        top = np.flatnonzero((h if not lip_on else h[a]) >= gamma - 1e-9 * max(1.0, gamma))
     method = "lp" if found.solved else "threshold"
     return problem.certificate(
-        r.value, inputs[a], inputs[b], released, h, method, r.status, r.solver_status, r.reason, found.solved, result=r
+        r.value, (a, b), top, h, method, r.status, r.solver_status, r.reason, found.solved, result=r
     )
 
 

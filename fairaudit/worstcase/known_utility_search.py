@@ -330,7 +330,7 @@ class _Coefficients:
 
     @classmethod
     def of(cls, space: _ModelSpace, x: int, b: int) -> _Coefficients:
-        value, roundings, nonzero = space.coef(x, b), space.roundings(x, b), space.nonzero(x, b)
+        value, roundings, nonzero = space.cells(x, b)
         low, high = product_ends(value, roundings, nonzero)
         return cls(value, low, high, int(roundings.max(initial=0)))
 
@@ -338,11 +338,12 @@ class _Coefficients:
     def weighted(cls, space: _ModelSpace, xs: IntArray, b: int, weights: FloatArray, single: bool) -> _Coefficients:
         """Σ_x w_x · coef(x, b): a weight is P(x | b), computed with n_x roundings; the products and the sum add
         one and n_x − 1 more (none when one context has P(x, b) > 0: its weight is exactly 1)."""
-        value = functools.reduce(operator.add, [w * space.coef(x, b) for x, w in zip(xs, weights)])
-        roundings = np.max([space.roundings(x, b) for x in xs], axis=0)
+        parts = [space.cells(x, b) for x in xs]
+        value = functools.reduce(operator.add, [w * v for w, (v, _, _) in zip(weights, parts)])
+        roundings = np.max([r for _, r, _ in parts], axis=0)
         if not single:
             roundings = roundings + 2 * space.n_contexts + 1
-        nonzero = functools.reduce(operator.or_, [space.nonzero(x, b) for x in xs])
+        nonzero = functools.reduce(operator.or_, [nz for _, _, nz in parts])
         low, high = product_ends(value, roundings, nonzero)
         return cls(value, low, high, int(roundings.max(initial=0)))
 
@@ -351,9 +352,8 @@ class _Coefficients:
 class _ModelSpace:
     """The polytope of reachable kernels in G-space (g depends on u only) or kernel space."""
 
-    coef: Callable[[SupportsIndex, SupportsIndex], FloatArray]  # (x, b) -> coefficients of E[g | x, b]
-    roundings: Callable[[SupportsIndex, SupportsIndex], IntArray]  # (x, b) -> roundings of each coefficient
-    nonzero: Callable[[SupportsIndex, SupportsIndex], BoolArray]  # (x, b) -> whether each is exactly positive
+    # (x, b) -> the coefficients of E[g | x, b], the roundings of each, and whether each is exactly positive
+    cells: Callable[[SupportsIndex, SupportsIndex], tuple[FloatArray, IntArray, BoolArray]]
     n_contexts: int
     to_kernel: Callable[[npt.NDArray[Any]], npt.NDArray[Any]]  # (exact for Fractions)
     program: Callable[[], FractionalProgram]  # built on first use, on the τ rows rounded up
@@ -379,20 +379,14 @@ def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
     shape = (nXr, nAr) if u_only else (nXr, nAr, nU)
     width = math.prod(shape)
 
-    def factors(x: SupportsIndex, b: SupportsIndex) -> tuple[npt.NDArray[Any], ...]:
-        return coefficient_factors(MA, MX, g, u_only, x, b)
-
-    def coef(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
-        return functools.reduce(operator.mul, factors(x, b)).ravel()
-
-    def roundings(x: SupportsIndex, b: SupportsIndex) -> IntArray:
-        """The roundings of each coefficient: its product's, plus those its entries of M_X and M_A carry."""
-        f = factors(x, b)
+    def cells(x: SupportsIndex, b: SupportsIndex) -> tuple[FloatArray, IntArray, BoolArray]:
+        """The coefficients of E[g | x, b]; the roundings of each (its product's, plus those its entries of M_X and
+        M_A carry); whether each is exactly positive."""
+        f = coefficient_factors(MA, MX, g, u_only, x, b)
         extra = entries[1] * (f[0] != 0) + entries[0] * (f[1] != 0)
-        return np.broadcast_to(product_roundings(*f) + extra, shape).ravel()
-
-    def nonzero(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
-        return functools.reduce(operator.and_, [f != 0 for f in factors(x, b)]).ravel()
+        roundings = np.broadcast_to(product_roundings(*f) + extra, shape).ravel()
+        nonzero = functools.reduce(operator.and_, [v != 0 for v in f]).ravel()
+        return functools.reduce(operator.mul, f).ravel(), roundings, nonzero
 
     if u_only:
         g_row = g[xs[0], 0] if xs.size else g[0, 0]
@@ -424,13 +418,9 @@ def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
     outer: FloatArray | None = None
     below: list[Any] = []
     if problem.binding and tau is not None and (u_only or tau > 0):
-        pairs = [(x, b) for x in xs for b in range(nA)]
-
-        def stacked(f: Callable[[SupportsIndex, SupportsIndex], npt.NDArray[Any]]) -> npt.NDArray[Any]:
-            return np.array([f(x, b) for x, b in pairs]).reshape(len(pairs), width)
-
-        rows = stacked(coef)
-        low, outer = product_ends(rows, stacked(roundings), stacked(nonzero))
+        parts = [cells(x, b) for x in xs for b in range(nA)]
+        rows, counts, nonzero = (np.array([part[i] for part in parts]).reshape(len(parts), width) for i in range(3))
+        low, outer = product_ends(rows, counts, nonzero)
         below = [(-low, np.full(len(rows), -float(tau)), "le")]
 
     def build() -> FractionalProgram:
@@ -440,9 +430,7 @@ def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
         return FractionalProgram(width, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub, **eq)
 
     return _ModelSpace(
-        coef=coef,
-        roundings=roundings,
-        nonzero=nonzero,
+        cells=cells,
         n_contexts=nX,
         to_kernel=to_kernel,
         program=functools.cache(build),  # (built once, at the first LP)

@@ -89,11 +89,10 @@ def lipschitz_proof(
     if kind == "randomized_response":
         t = exp_up(record["epsilon"])
         out["at"] = "inf" if math.isinf(t) else exact_number(Fraction(t))
-        p, q = (
-            (Fraction(1), Fraction(0))
-            if math.isinf(t)
-            else (Fraction(t) / (Fraction(t) + k - 1), 1 / (Fraction(t) + k - 1))
-        )
+        if math.isinf(t):  # (the identity's rows, the limit t → ∞)
+            p, q = Fraction(1), Fraction(0)
+        else:
+            p, q = Fraction(t) / (Fraction(t) + k - 1), 1 / (Fraction(t) + k - 1)
         rows = [[p if i == j else q for j in range(k)] for i in range(k)]
     else:
         rows = [[Fraction(v) for v in row] for row in record["matrix"]]

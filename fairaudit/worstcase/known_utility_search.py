@@ -510,25 +510,23 @@ def _model_case(
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
     duals = () if evidence is None else evidence.all()
     point: npt.NDArray[Any] | None = None
-    recorded = r.argmax is not None and (bool(duals) or space.lo is None)  # (over the model's table: always)
-    vertex = None
-    if recorded:
+    if r.argmax is not None and (bool(duals) or space.lo is None):  # (recorded over the model's table: always)
         r, vertex = _exact_witness(r, *pair(found.index), space)
-    if recorded and not problem.same_x:  # the table over every released context
-        table = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
-        point = table if vertex is None else space.to_kernel(vertex)
-    elif recorded:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
+        argmax = np.asarray(r.argmax, dtype=float)
         n_x = len(problem.contexts)
-        if space.lo is not None and space.hi is not None:
-            h = vertex if vertex is not None else np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi)
-            h = h.reshape(n_x, -1)
-        else:
-            cells: npt.NDArray[Any] = np.clip(np.asarray(r.argmax, dtype=float), 0.0, 1.0) if vertex is None else vertex
-            cells = cells.reshape(n_x, problem.n_released_groups, -1)
+        if not problem.same_x:  # the table over every released context
+            point = np.clip(space.to_kernel(argmax), 0.0, 1.0) if vertex is None else space.to_kernel(vertex)
+        elif space.lo is not None and space.hi is not None:  # h[x, ã] = E[g | x, released ã]: the variables
+            point = (vertex if vertex is not None else np.clip(argmax, space.lo, space.hi)).reshape(n_x, -1)
+        else:  # or Σ_u K[x, ã, u] g(u, x)
+            cells = (np.clip(argmax, 0.0, 1.0) if vertex is None else vertex).reshape(
+                n_x, problem.n_released_groups, -1
+            )
             # a utility by group weighs one table differently per group: the table itself is the point
             g = problem.g[:, 0, :] if vertex is None else np.vectorize(Fraction, otypes=[object])(problem.g[:, 0, :])
-            h = cells if not problem.group_free else (cells * g[:, None, :]).sum(axis=2)
-        point = h[x] if kind == "local" else h
+            point = cells if not problem.group_free else (cells * g[:, None, :]).sum(axis=2)
+        if problem.same_x and kind == "local":
+            point = point[x]
     return WorstCase.searched(
         kind,
         replace(found, result=r),

@@ -49,20 +49,17 @@ def exact_result(
     optimum: RatioOptimum,
     p: Sequence[Fraction],
     q: Sequence[Fraction],
-    solver_status: str,
 ) -> FractionalResult | None:
     """The :class:`FractionalResult` of a program solved exactly, or None.
 
     Parameters
     ----------
     result : callable
-        Makes the result from its remaining fields (``method``, ``p``, ``q``, ``lower`` and ``upper`` given).
+        Makes the result from its remaining fields (``method`` and ``solver_status`` given).
     optimum : RatioOptimum
         :func:`~fairaudit.base.exact_ratio.maximize_ratio_over_product`'s outcome.
     p, q : sequences of Fraction, shape (n,)
         The exact numerator and denominator it was solved for.
-    solver_status : str
-        The result's ``solver_status``.
 
     Returns
     -------
@@ -78,14 +75,13 @@ def exact_result(
     """
     if optimum.status == "infeasible":  # proved exactly: the polytope is empty
         reason = "the constraints are inconsistent: no feasible h"
-        return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
+        return result(value=math.nan, argmax=None, status="infeasible", reason=reason)
     if optimum.status == "zero_denominator" and optimum.point is not None:
         at = optimum.point  # a vertex of the polytope, exactly
         if sum(map(operator.mul, q, at)) == 0 < sum(map(operator.mul, p, at)):
             point = np.array([float(x) for x in at])
             reason = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)"
-            return result(value=math.inf, argmax=point, status="unbounded", solver_status=solver_status,
-                          reason=reason, certified=True)  # fmt: skip
+            return result(value=math.inf, argmax=point, status="unbounded", reason=reason, certified=True)
     if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
         return None
     value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
@@ -93,7 +89,6 @@ def exact_result(
         value=value,
         argmax=np.array([float(x) for x in optimum.point]),
         status="optimal",
-        solver_status=solver_status,
         reason="",
         certified=True,
         witness=witness,
@@ -270,15 +265,15 @@ class ExactPrograms:
         ends = self._built()
         if ends is None:
             return None
-        result = functools.partial(FractionalResult, method="lp")
         status = f"{rounded.solver_status}; {EXACT_CROSSOVER} (exact: {WHY})"
+        result = functools.partial(FractionalResult, method="lp", solver_status=status)
 
         def optimum(end: _End) -> tuple[RatioOptimum, list[Fraction], list[Fraction]]:
             p, q = data(end)
             return maximize_ratio_over_product(end.blocks, end.split(p), end.split(q)), list(p), list(q)
 
         high, p, q = optimum(ends[-1])
-        found = exact_result(result, high, p, q, status)
+        found = exact_result(result, high, p, q)
         if found is not None and found.status == "optimal" and high.multipliers is not None and self._floors:
             found = replace(found, exact_dual=(self._floor_multipliers(ends[-1], high.multipliers),))
         if found is None or len(ends) == 1 or found.status != "optimal":

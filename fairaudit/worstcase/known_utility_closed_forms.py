@@ -245,14 +245,8 @@ def local_threshold(problem: ModelProblem, MA: FloatArray, boxes: tuple[FloatArr
     x = int(np.argmax(live & (best_by_range[range_of] == best_by_range.max())))  # the first live maximiser
     best_range = range_of[x]
     a, b = np.unravel_index(int(box_by_range[best_range].argmax()), (nA, nA))
-    _, k_top, order_top = threshold_max_many(MA[a], MA[b], ranges[best_range, 0], ranges[best_range, 1])
-    top = order_top[: int(k_top)]
-    hi_u, lo_u = int(g[x, 0].argmax()), int(g[x, 0].argmin())
-    table = np.zeros((problem.n_released_contexts, problem.n_released_groups, nU))
-    table[..., lo_u] = 1.0
-    table[:, top, lo_u] = 0.0
-    table[:, top, hi_u] = 1.0
-    kern = problem.kernel(table, exact=True)
+    high, low = onehot(g[x, 0].argmax(), nU), onehot(g[x, 0].argmin(), nU)
+    kern = _threshold_kernel(problem, MA, int(a), int(b), ranges[best_range, 0], ranges[best_range, 1], high, low)
     r = float(box_by_range[best_range, a, b])
     reason = "a released group is possible for one group and impossible for another" if math.isinf(r) else ""
     return _threshold_case(problem, "local", r, nats_up(r), x, int(a), int(b), kern, reason=reason)
@@ -282,11 +276,20 @@ def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
     vals = pairwise_box(MA[present], lo_g, hi_g, None)[0]
     np.fill_diagonal(vals, -np.inf)
     i, j = np.unravel_index(int(vals.argmax()), vals.shape)
-    a, b = present[i], present[j]
-    _, k_top, order_top = threshold_max_many(MA[a], MA[b], lo_g, hi_g)
-    top = order_top[: int(k_top)]
-    table = np.repeat(onehot(weighted_g.argmin(-1), nU)[:, None, :], problem.n_released_groups, axis=1)
-    table[:, top, :] = onehot(weighted_g.argmax(-1), nU)[:, None, :]
-    kern = problem.kernel(table, exact=True)
+    a, b = int(present[i]), int(present[j])
+    high, low = onehot(weighted_g.argmax(-1), nU), onehot(weighted_g.argmin(-1), nU)
+    kern = _threshold_kernel(problem, MA, a, b, lo_g, hi_g, high, low)
     r = float(vals[i, j])
-    return _threshold_case(problem, "global", r, nats_up(r), None, int(a), int(b), kern)
+    return _threshold_case(problem, "global", r, nats_up(r), None, a, b, kern)
+
+
+def _threshold_kernel(
+    problem: ModelProblem, MA: FloatArray, a: int, b: int, lo: float, hi: float, high: FloatArray, low: FloatArray
+) -> Kernel:
+    """The threshold kernel of the pair (a, b) over the box [lo, hi]: the decisions ``high`` on the released groups of
+    its prefix, ``low`` on the others (one-hot rows, per released context or one row for all of them)."""
+    _, k, order = threshold_max_many(MA[a], MA[b], lo, hi)
+    shape = (problem.n_released_contexts, problem.g.shape[2])
+    table = np.repeat(np.broadcast_to(low, shape)[:, None, :], problem.n_released_groups, axis=1)
+    table[:, order[: int(k)], :] = np.broadcast_to(high, shape)[:, None, :]
+    return problem.kernel(table, exact=True)

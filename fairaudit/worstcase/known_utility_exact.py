@@ -16,6 +16,7 @@ the lower end from below.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import operator
 from collections.abc import Callable, Sequence
@@ -209,11 +210,10 @@ class ExactPrograms:
                 b_ub += [Fraction(1), Fraction(-1)]
             # −E[g | x, b] ≤ −τ for the live contexts whose rows the block holds (all of them in one block)
             xs = [x for x in (released if problem.same_x else range(g.shape[0])) if live[x]] if self._floors else []
-            for x in xs:
-                for b in range(nA):
-                    full = _coefficients(MA, MX, g, self._u_only, x, b)
-                    a_ub.append([-v for v in full[i * width : (i + 1) * width]])
-                    b_ub.append(-tau)
+            for x, b in itertools.product(xs, range(nA)):
+                full = _coefficients(MA, MX, g, self._u_only, x, b)
+                a_ub.append([-v for v in full[i * width : (i + 1) * width]])
+                b_ub.append(-tau)
             blocks.append(Polytope(lower, upper, a_ub, b_ub, width))
         return _End(MA, MX, g, self._u_only, blocks, width)
 
@@ -228,10 +228,9 @@ class ExactPrograms:
         for i in range(len(end.blocks)):
             xs = [x for x in ([i] if problem.same_x else range(problem.g.shape[0])) if problem.live[x]]
             start += cells
-            for x in xs:
-                for b in range(n_a):
-                    out[(x, b)] = y[start]
-                    start += 1
+            for x, b in itertools.product(xs, range(n_a)):
+                out[(x, b)] = y[start]
+                start += 1
         return tuple(out.values())
 
     def local(self, x: int, a: int, b: int) -> Callable[[_End], tuple[ObjectArray, ObjectArray]]:

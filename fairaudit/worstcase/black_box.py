@@ -36,7 +36,6 @@ from fairaudit.worstcase.pair_search import (
     check_method,
     implied_floor,
     inner_witness,
-    pair_epsilon,
     pair_ratio,
     ratio_ceiling,
     relaxed_first,
@@ -450,9 +449,10 @@ def _lipschitz_certificate(problem: _ClassProblem, d: FloatArray) -> BlackBoxCer
     upper = np.full(len(pairs), np.inf)
     floor = problem.floor
     if floor > 0:  # the ratio of two entries, each carrying R roundings, and the division: 2R + 1
-        t = widen_up(pair_epsilon(mechanism.matrix), rounding_error(2 * mechanism.matrix_roundings + 1))
+        roundings = rounding_error(2 * mechanism.matrix_roundings + 1)
+        t = np.asarray(widen_up(pair_ratio(mechanism.matrix, pairs[:, 0], pairs[:, 1]), roundings))
         slack = up(up(problem.lipschitz * d) / floor)
-        tight = up(np.asarray(t)[pairs[:, 0], pairs[:, 1]] + slack[pairs[:, 0], pairs[:, 1]])
+        tight = up(t + slack[pairs[:, 0], pairs[:, 1]])
         upper = np.minimum(upper, np.minimum(_ceiling(problem), tight))
     prog, rows = _lipschitz_program(
         low, high, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d

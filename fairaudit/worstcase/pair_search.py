@@ -353,17 +353,8 @@ def _ratios(p: FloatArray, q: FloatArray) -> FloatArray:
         return np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
 
 
-def pair_epsilon(matrix: FloatArray) -> FloatArray:
-    """max_o M[a, o] / M[b, o] for every ordered pair, shape (n, n) (c/0 = inf, 0/0 ignored), a tile at a time."""
-    n = matrix.shape[0]
-    out = np.empty((n, n))
-    for rows, cols in PairPass(matrix).tiles():
-        out[rows, cols] = _ratios(matrix[rows, None, :], matrix[None, cols, :]).max(axis=-1)
-    return out
-
-
 def pair_ratio(matrix: FloatArray, a: IntArray, b: IntArray) -> FloatArray:
-    """max_o M[a[i], o] / M[b[i], o] for the pairs given (as :func:`pair_epsilon`), a chunk at a time."""
+    """max_o M[a[i], o] / M[b[i], o] for the pairs given (c/0 = inf, 0/0 ignored), a chunk at a time."""
     out = np.empty(a.size)
     step = max(1, PAIR_BLOCK // max(1, matrix.shape[1]))
     for s in range(0, a.size, step):

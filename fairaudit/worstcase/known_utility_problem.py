@@ -152,13 +152,8 @@ def model_problem(
         tau = nonnegative(tau, "tau")
     groups = mechanism.inputs
     if context_mechanism is None:
-        contexts = (
-            population.contexts
-            if population is not None
-            else utility.contexts
-            if utility.contexts is not None
-            else ("all",)
-        )
+        default = ("all",) if utility.contexts is None else utility.contexts
+        contexts = population.contexts if population is not None else default
         context_mechanism = identity(contexts, name="identity on contexts")
     if not isinstance(context_mechanism, Mechanism):
         raise InputError("context_mechanism", "must be a Mechanism", type(context_mechanism).__name__)

@@ -501,14 +501,12 @@ def _white_box_floor(
     """Infeasible: the model misses the target at ε = 0; says why, and whether some larger ε meets it."""
     cause = f" ({'; '.join(why)})" if why else ""
     later = next((float(e) for e in grid[1:] if value(float(e)) <= limit), None)
-    also = (
-        ""
-        if later is None
-        else (
+    also = ""
+    if later is not None:
+        also = (
             f"; some larger epsilon meets it (e.g. {later:.6g} nats) but not every "
             "smaller one: the model's fairness is not monotone in epsilon"
         )
-    )
     return infeasible(
         f0,
         f"the model's {name} is {f0:.6g} nats > target "
@@ -532,11 +530,8 @@ def _scan(
     below the crossing meets the target, and every ε does when ε = +inf does; the reason says which it rests on.
     """
     lo, f_lo = 0.0, f0
-    how = (
-        f"{name} is non-decreasing in epsilon along the family, for a utility free of the group"
-        if monotone
-        else f"first crossing of a {len(grid)}-point scan, refined"
-    )
+    rising = f"{name} is non-decreasing in epsilon along the family, for a utility free of the group"
+    how = rising if monotone else f"first crossing of a {len(grid)}-point scan, refined"
     found: tuple[float, float, float, float] | None
     for eps in grid[1:]:  # (the first crossing of the grid, refined below)
         v = value(float(eps))
@@ -547,15 +542,11 @@ def _scan(
     else:  # no crossing on the grid: beyond it
         top = value(math.inf)
         if top <= limit:
-            why_every = (
-                f"and {name} is non-decreasing in epsilon along the family, for a utility free of the group"
-                if monotone
-                else f"and no point of the {len(grid)}-point scan exceeds it"
-            )
+            why_every = rising if monotone else f"no point of the {len(grid)}-point scan exceeds it"
             return Found(
                 math.inf,
                 top,
-                f"every epsilon meets the target: the model's {name} without privacy is {top:.6g} nats {why_every}",
+                f"every epsilon meets the target: the model's {name} without privacy is {top:.6g} nats and {why_every}",
             )
         found = bracket(value, limit, lo, f_lo, 2 * lo)
         if found is None:

@@ -14,7 +14,6 @@ by :func:`~fairaudit.worstcase.known_utility.worst_model`.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import replace
 from fractions import Fraction
 from typing import Any
@@ -30,7 +29,7 @@ from fairaudit.laws.tables import Kernel
 from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
 from fairaudit.worstcase.pair_search import pairwise_box
 from fairaudit.worstcase.randomized_response import RRWorst, rr_box, rr_theta, rr_witness_point
-from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, nats_up
+from fairaudit.worstcase.worst_cases import WorstCase, nats_up
 
 
 def _threshold_case(
@@ -97,7 +96,8 @@ def randomized_response_cases(
         pair = (problem.groups.index(a), problem.groups.index(b))
         h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor, *pair) if same_x else None
         point = None if h is None else np.array([h] * len(problem.contexts), dtype=object)
-        duals = _screens(problem, [(None, rr_theta(rr, lo, hi, floor))], *pair)
+        theta = rr_theta(rr, lo, hi, floor)  # (the one-floor threshold of the pair's program, for the certificate)
+        duals = () if theta is None else (problem.dual(None, *pair, theta=theta),)
         return local, replace(case, duals=duals, witness_point=point)
     return local, None
 
@@ -138,17 +138,9 @@ def _rr_local(
     # each live context's proof for the pair (0, 1), which stands for every pair (``proofs/verification.md`` §4), and
     # the maximiser's point, exactly, where the floor binds (verify reads the lower end off it)
     thetas = [(x, rr_theta(rr, float(lo_x[x]), float(hi_x[x]), floor)) for x in np.flatnonzero(live).tolist()]
+    duals = tuple(problem.dual(x, 0, 1, theta=theta) for x, theta in thetas if theta is not None)
     h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor) if problem.binding and problem.same_x else None
-    return replace(
-        case, duals=_screens(problem, thetas, 0, 1), witness_point=None if h is None else np.array(h, dtype=object)
-    )
-
-
-def _screens(
-    problem: ModelProblem, thetas: Sequence[tuple[int | None, Fraction | None]], a: int, b: int
-) -> tuple[ProgramDual, ...]:
-    """The one-floor thresholds θ of the pair (a, b)'s programs (context x, or None for L̄), for the certificate."""
-    return tuple(problem.dual(x, a, b, theta=theta) for x, theta in thetas if theta is not None)
+    return replace(case, duals=duals, witness_point=None if h is None else np.array(h, dtype=object))
 
 
 def _floor_behind(problem: ModelProblem) -> float:

@@ -129,17 +129,15 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         return coefficients[position[pairs[i, 0]]], coefficients[position[pairs[i, 1]]]
 
     inexact = max(c.roundings for c in coefficients)
+    P = np.stack([c.value for c in coefficients])
+    a, b = position[pairs[:, 0]], position[pairs[:, 1]]  # (each pair's rows of P)
     if space.lo is not None and space.hi is not None and problem.method != "lp":
-        P = np.stack([c.value for c in coefficients])
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
-        upper = np.minimum(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
-    screens = np.full(len(pairs), np.nan)
+        upper = np.minimum(upper, v[a, b])
     # every program's proof over the model's table (as local_search)
-    table, n_u = _as_table(np.stack([c.value for c in coefficients]), space, g)
-    v, theta = _table_relaxation(table, n_u, tau, inexact + (space.lo is not None))
-    relaxed = v[position[pairs[:, 0]], position[pairs[:, 1]]]
-    if tau:
-        screens = _screens(theta[position[pairs[:, 0]], position[pairs[:, 1]]], relaxed, tau, reach[pairs[:, 0]])
+    v, theta = _table_relaxation(*_as_table(P, space, g), tau, inexact + (space.lo is not None))
+    relaxed = v[a, b]
+    screens = _screens(theta[a, b], relaxed, tau, reach[pairs[:, 0]]) if tau else np.full(len(pairs), np.nan)
     if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
         upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])

@@ -454,10 +454,7 @@ def _lipschitz_certificate(problem: _ClassProblem, d: FloatArray) -> BlackBoxCer
         slack = up(up(problem.lipschitz * d) / floor)
         tight = up(t + slack[pairs[:, 0], pairs[:, 1]])
         upper = np.minimum(upper, np.minimum(_ceiling(problem), tight))
-    prog, rows = _lipschitz_program(
-        low, high, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d
-    )
-    inner = InnerProgram(np.full(n * m, problem.lower), np.full(n * m, problem.gamma), rows)
+    prog, inner = _lipschitz_program(problem, low, high, d)
 
     def solve(i: int) -> FractionalResult:
         a, b = pairs[i]
@@ -544,23 +541,25 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
 
 
 def _lipschitz_program(
-    low: FloatArray, high: FloatArray, lower: float, gamma: float, floor: float | None, lip: float, d: FloatArray
-) -> tuple[FractionalProgram, Rows]:
-    """The class polytope with a utility per group, h (n, m) flattened row-major: the outer program (the floors on
-    M_A's upper ends ``high``, the Lipschitz limits L_A·d rounded up), and the inner program's rows (the floors on
-    the lower ends ``low``, the limits rounded down), which a witness meets only where it meets the exact ones."""
+    problem: _ClassProblem, low: FloatArray, high: FloatArray, d: FloatArray
+) -> tuple[FractionalProgram, InnerProgram]:
+    """The class polytope with a utility per group, h (n, m) flattened row-major: the outer program (the floors, where
+    they bind, on M_A's upper ends ``high``, the Lipschitz limits L_A·d rounded up), and the inner program (the floors
+    on the lower ends ``low``, the limits rounded down), which a witness meets only where it meets the exact ones."""
     import scipy.sparse as sp
 
+    lower, gamma, floor = problem.lower, problem.gamma, problem.floor if problem.binding else None
     n, m = high.shape
     group_b, group_c = np.triu_indices(n, 1)
-    product = lip * d[group_b, group_c]
+    product = problem.lipschitz * d[group_b, group_c]
     keep = down(product) < up(gamma - lower)  # the others are implied by the box: L_A·d ≥ γ − lower exactly
     group_b, group_c, product = group_b[keep], group_c[keep], product[keep]
     outer = _class_rows(n, m, group_b, group_c, up(product), -high, floor)
     a_ub = sp.vstack([a for a, _, _ in outer], format="csr") if outer else None
     b_ub = np.concatenate([b for _, b, _ in outer]) if outer else None
     program = FractionalProgram(n * m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=b_ub)
-    return program, _class_rows(n, m, group_b, group_c, down(product), -low, floor)
+    inner = _class_rows(n, m, group_b, group_c, down(product), -low, floor)
+    return program, InnerProgram(np.full(n * m, lower), np.full(n * m, gamma), inner)
 
 
 def _class_rows(

@@ -82,7 +82,8 @@ def lipschitz_proof(
     k, n_out, kind = len(record["inputs"]), len(record["outputs"]), record["kind"]
     if k < 2 or kind == "identity":
         return None
-    lo, hi, floor, lip = Fraction(lower), Fraction(gamma), _floor(tau), Fraction(lipschitz)
+    lo, hi, lip = Fraction(lower), Fraction(gamma), Fraction(lipschitz)
+    floor = None if tau is None or math.isnan(tau) or tau == 0 else Fraction(tau)  # (None, NaN or 0: no floor)
     d = [[Fraction(int(b != c)) if metric is None else Fraction(metric[b][c]) for c in range(k)] for b in range(k)]
     distances = {d[b][c] for b in range(k) for c in range(k) if b != c}
     out: Report = {}
@@ -130,11 +131,6 @@ def _upward(value: Fraction) -> float | str:
     where that would round it (beyond 4,000 characters): a larger bound is proved by the same multipliers."""
     written = exact_number(value)
     return fraction_up(value) if isinstance(written, float) and Fraction(written) < value else written
-
-
-def _floor(tau: float | None) -> Fraction | None:
-    """τ exactly; None for no floor (None, NaN or 0)."""
-    return None if tau is None or math.isnan(tau) or tau == 0 else Fraction(tau)
 
 
 def _point(record: Mapping[str, Any], a: int, b: int, h: Sequence[Fraction] | None) -> Report:

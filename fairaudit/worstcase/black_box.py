@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
 
@@ -36,7 +36,6 @@ from fairaudit.worstcase.pair_search import (
     check_method,
     implied_floor,
     inner_witness,
-    pair_epsilon,
     pair_ratio,
     ratio_ceiling,
     relaxed_first,
@@ -146,7 +145,7 @@ def black_box_bound(
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
         m = len(mechanism.outputs)
         return problem.certificate(
-            1.0, None, None, (), np.full(m, gamma), status="trivial", solver_status="threshold", reason=reason
+            1.0, None, (), np.full(m, gamma), status="trivial", solver_status="threshold", reason=reason
         )
     if rr is not None:
         closed = _randomized_response_certificate(problem, rr, d)
@@ -192,6 +191,17 @@ def _class_problem(
         raise InputError(
             "method", "the threshold solution needs tau <= lower (times M_A's least row sum) and lipschitz = 0", method
         )
+    # the mechanism's assumptions (and X ⊥ A on ``population``), then the class vouched for
+    assumptions = check_assumptions(mechanism, population=population) + (
+        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
+        Assumption(
+            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
+            "vouched",
+            f"L_A = {lip:g}" if lip_on else "L_A = 0",
+        ),
+    )
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
     problem = _ClassProblem(
         mechanism=mechanism,
         lower=lower,
@@ -202,7 +212,7 @@ def _class_problem(
         binding=binding,
         lipschitz_on=lip_on,
         method=method,
-        assumptions=_class_assumptions(mechanism, population, lower, gamma, tau, lip, lip_on),
+        assumptions=assumptions,
     )
     return problem, rr, metric, d
 
@@ -241,29 +251,6 @@ def _on_unit_scale(
     )
 
 
-def _class_assumptions(
-    mechanism: Mechanism,
-    population: Population | None,
-    lower: float,
-    gamma: float,
-    tau: float | None,
-    lip: float,
-    lip_on: bool,
-) -> tuple[Assumption, ...]:
-    """The assumptions of a class certificate: the mechanism's (and X ⊥ A on ``population``), then the class vouched for."""
-    assumptions = check_assumptions(mechanism, population=population) + (
-        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
-        Assumption(
-            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
-            "vouched",
-            f"L_A = {lip:g}" if lip_on else "L_A = 0",
-        ),
-    )
-    if tau is not None:
-        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
-    return assumptions
-
-
 @dataclass(frozen=True, kw_only=True)
 class _ClassProblem:
     """A checked class of utilities on the scale γ = 1 (or γ = 0), and what every route of the certificate needs."""
@@ -282,9 +269,8 @@ class _ClassProblem:
     def certificate(
         self,
         ratio: float,
-        group: Hashable | None,
-        other_group: Hashable | None,
-        released: tuple,
+        pair: tuple[int, int] | None,
+        top: IntArray | Sequence[int],
         utility_by_release: FloatArray,
         method: str = "threshold",
         status: str = "optimal",
@@ -295,19 +281,22 @@ class _ClassProblem:
         value: float | None = None,
         result: FractionalResult | None = None,
     ) -> BlackBoxCertificate:
-        """The certificate of a maximiser; ``value`` (nats) defaults to the log of ``ratio`` rounded up (NaN stays NaN).
+        """The certificate of a maximiser: the ordered ``pair`` of groups (indices; None without one), the released
+        values (indices ``top``) where h is γ; ``value`` (nats) defaults to the log of ``ratio`` rounded up (NaN stays
+        NaN).
 
         The defaults are a closed form's: no program solved. ``result``: the maximiser's program, whose certification,
         witness and gap the certificate repeats.
         """
         if value is None:
             value = nats_up(ratio)
+        inputs, outputs = self.mechanism.inputs, self.mechanism.outputs
         return BlackBoxCertificate(
             value=value,
             ratio=ratio,
-            group=group,
-            other_group=other_group,
-            released=released,
+            group=None if pair is None else inputs[pair[0]],
+            other_group=None if pair is None else inputs[pair[1]],
+            released=tuple(outputs[o] for o in top),
             utility_by_release=utility_by_release,
             lower=self.lower,
             gamma=self.gamma,
@@ -334,16 +323,14 @@ def _randomized_response_certificate(
     None where no closed form applies (L_A > 0, a binding τ and a metric other than the discrete one).
     """
     lower, gamma, floor, lip = problem.lower, problem.gamma, problem.floor, problem.lipschitz
-    outputs, inputs = problem.mechanism.outputs, problem.mechanism.inputs
-    n, m = len(inputs), len(outputs)
+    n, m = len(problem.mechanism.inputs), len(problem.mechanism.outputs)
     if not problem.lipschitz_on:
         w = rr_box(rr, lower, gamma, floor)
         inf = math.isinf(w.value)
         return problem.certificate(
             w.ratio,
-            inputs[0],
-            inputs[1],
-            tuple(outputs[o] for o in w.released(n, gamma)),
+            (0, 1),
+            w.released(n, gamma),
             w.vector(n),
             status="unbounded" if inf else "optimal",
             solver_status="threshold" if w.prefix else "closed form",
@@ -355,7 +342,7 @@ def _randomized_response_certificate(
     if not discrete and problem.binding:
         return None
     # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
-    a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
+    a, b = (0, 1) if d is None or discrete else map(int, np.unravel_index(int(np.argmax(d)), d.shape))
     dmax = 1.0 if off_diagonal is None else float(off_diagonal.max())
     g = Fraction(gamma)  # every piece's program exactly, at t = exp_up(ε), on the scale γ = 1
     exact, point = rr_lipschitz_ratio(rr.k, rr.epsilon, Fraction(lower) / g, Fraction(1), Fraction(floor) / g,
@@ -363,8 +350,7 @@ def _randomized_response_certificate(
     if exact == math.inf:
         return problem.certificate(
             math.inf,
-            inputs[a],
-            inputs[b],
+            (a, b),
             (),
             np.full((n, m), math.nan),
             status="unbounded",
@@ -384,8 +370,7 @@ def _randomized_response_certificate(
         h = np.clip(np.minimum(f[None, :] + lip * d[:, a, None], g[None, :] + lip * d[:, b, None]), lower, gamma)
     h[a], h[b] = f, g
     top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
-    released = tuple(outputs[o] for o in top)
-    return problem.certificate(ratio, inputs[a], inputs[b], released, h, value=log_up(exact))
+    return problem.certificate(ratio, (a, b), top, h, value=log_up(exact))
 
 
 def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
@@ -400,11 +385,7 @@ def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPair
     ratio = float(found.box[i])
     status = "unbounded" if math.isinf(ratio) else "optimal"
     reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
-    inputs, outputs = problem.mechanism.inputs, problem.mechanism.outputs
-    released = tuple(outputs[o] for o in top)
-    return problem.certificate(
-        ratio, inputs[a], inputs[b], released, h, status=status, solver_status="threshold", reason=reason
-    )
+    return problem.certificate(ratio, (a, b), top, h, status=status, solver_status="threshold", reason=reason)
 
 
 def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
@@ -468,14 +449,12 @@ def _lipschitz_certificate(problem: _ClassProblem, d: FloatArray) -> BlackBoxCer
     upper = np.full(len(pairs), np.inf)
     floor = problem.floor
     if floor > 0:  # the ratio of two entries, each carrying R roundings, and the division: 2R + 1
-        t = widen_up(pair_epsilon(mechanism.matrix), rounding_error(2 * mechanism.matrix_roundings + 1))
+        roundings = rounding_error(2 * mechanism.matrix_roundings + 1)
+        t = np.asarray(widen_up(pair_ratio(mechanism.matrix, pairs[:, 0], pairs[:, 1]), roundings))
         slack = up(up(problem.lipschitz * d) / floor)
-        tight = up(np.asarray(t)[pairs[:, 0], pairs[:, 1]] + slack[pairs[:, 0], pairs[:, 1]])
+        tight = up(t + slack[pairs[:, 0], pairs[:, 1]])
         upper = np.minimum(upper, np.minimum(_ceiling(problem), tight))
-    prog, rows = _lipschitz_program(
-        low, high, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d
-    )
-    inner = InnerProgram(np.full(n * m, problem.lower), np.full(n * m, problem.gamma), rows)
+    prog, inner = _lipschitz_program(problem, low, high, d)
 
     def solve(i: int) -> FractionalResult:
         a, b = pairs[i]
@@ -537,7 +516,6 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
         return problem.certificate(
             math.nan,
             None,
-            None,
             (),
             np.full(m, math.nan),
             method="lp",
@@ -548,41 +526,40 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
             programs_solved=found.solved,
         )
     assert r is not None  # a maximising pair was found
-    a, b = pairs[found.index]
-    outputs = problem.mechanism.outputs
+    a, b = (int(v) for v in pairs[found.index])
     if r.argmax is None:
         h = np.full(m if not lip_on else (n, m), math.nan)
-        released: tuple = ()
+        top = np.zeros(0, dtype=np.intp)
     else:
         h = r.argmax if not lip_on else r.argmax.reshape(n, m)
         h = np.clip(h, lower, gamma)
-        row = h if not lip_on else h[a]
-        released = tuple(outputs[o] for o in np.flatnonzero(row >= gamma - 1e-9 * max(1.0, gamma)))
-    inputs = problem.mechanism.inputs
+        top = np.flatnonzero((h if not lip_on else h[a]) >= gamma - 1e-9 * max(1.0, gamma))
     method = "lp" if found.solved else "threshold"
     return problem.certificate(
-        r.value, inputs[a], inputs[b], released, h, method, r.status, r.solver_status, r.reason, found.solved, result=r
+        r.value, (a, b), top, h, method, r.status, r.solver_status, r.reason, found.solved, result=r
     )
 
 
 def _lipschitz_program(
-    low: FloatArray, high: FloatArray, lower: float, gamma: float, floor: float | None, lip: float, d: FloatArray
-) -> tuple[FractionalProgram, Rows]:
-    """The class polytope with a utility per group, h (n, m) flattened row-major: the outer program (the floors on
-    M_A's upper ends ``high``, the Lipschitz limits L_A·d rounded up), and the inner program's rows (the floors on
-    the lower ends ``low``, the limits rounded down), which a witness meets only where it meets the exact ones."""
+    problem: _ClassProblem, low: FloatArray, high: FloatArray, d: FloatArray
+) -> tuple[FractionalProgram, InnerProgram]:
+    """The class polytope with a utility per group, h (n, m) flattened row-major: the outer program (the floors, where
+    they bind, on M_A's upper ends ``high``, the Lipschitz limits L_A·d rounded up), and the inner program (the floors
+    on the lower ends ``low``, the limits rounded down), which a witness meets only where it meets the exact ones."""
     import scipy.sparse as sp
 
+    lower, gamma, floor = problem.lower, problem.gamma, problem.floor if problem.binding else None
     n, m = high.shape
     group_b, group_c = np.triu_indices(n, 1)
-    product = lip * d[group_b, group_c]
+    product = problem.lipschitz * d[group_b, group_c]
     keep = down(product) < up(gamma - lower)  # the others are implied by the box: L_A·d ≥ γ − lower exactly
     group_b, group_c, product = group_b[keep], group_c[keep], product[keep]
     outer = _class_rows(n, m, group_b, group_c, up(product), -high, floor)
     a_ub = sp.vstack([a for a, _, _ in outer], format="csr") if outer else None
     b_ub = np.concatenate([b for _, b, _ in outer]) if outer else None
     program = FractionalProgram(n * m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=b_ub)
-    return program, _class_rows(n, m, group_b, group_c, down(product), -low, floor)
+    inner = _class_rows(n, m, group_b, group_c, down(product), -low, floor)
+    return program, InnerProgram(np.full(n * m, lower), np.full(n * m, gamma), inner)
 
 
 def _class_rows(

@@ -57,10 +57,10 @@ Proofs: ``proofs/calibration.md``.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import numbers
 from collections.abc import Hashable, Sequence
+from dataclasses import replace
 from fractions import Fraction
 
 import numpy as np
@@ -376,19 +376,17 @@ def _certificate(
         factor = 1.0
         if common.kind == "global" and population is not None and not exactly_independent(population.probabilities):
             factor = independence_factor(population.probabilities)
-        if factor == 1.0:
-            return (
-                closed_form(common, method)
-                if method in ("paper", "tight")
-                else black_box(common, family, metric, population)
-            )
-        # X and A independent only within rounding: L-bar <= L + ln F (proofs/black_box.md §6), so L is held to the
-        # target less ln F, rounded down, and the certificate on L-bar is L's plus ln F, rounded up
-        shift = log_up(factor)
-        inner = dataclasses.replace(common, target=fraction_down(Fraction(common.target) - Fraction(shift)))
+        # X and A independent only within rounding (F > 1): L-bar <= L + ln F (proofs/black_box.md §6), so L is held
+        # to the target less ln F, rounded down, and the certificate on L-bar is L's plus ln F, rounded up
+        inner, shift = common, 0.0
+        if factor != 1.0:
+            shift = log_up(factor)
+            inner = replace(common, target=fraction_down(Fraction(common.target) - Fraction(shift)))
         found = (
             closed_form(inner, method) if method in ("paper", "tight") else black_box(inner, family, metric, population)
         )
+        if factor == 1.0:
+            return found
         return Found(
             found.epsilon,
             up(found.bound + shift),

@@ -107,16 +107,15 @@ def closed_form(common: Common, method: str) -> Found:
     x = (Fraction(lip) * Fraction(diam) + Fraction(delta) * Fraction(gamma)) / Fraction(tau)
     if method == "paper":
         eps = max(0.0, fraction_down(Fraction(target) - Fraction(log_up(1 + x))))
-        bound = main_theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = target - log(1 + (L_A*diam + delta*gamma)/tau) = {target:.6g} - {floor:.6g}"
     else:
         inside = 1 - x * Fraction(exp_up(-target))  # e^target − x = e^target (1 − x e^−target)
         eps = max(0.0, fraction_down(Fraction(target) + Fraction(log_down(inside)))) if inside > 0 else 0.0
-        bound = main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = log(e^target - (L_A*diam + delta*gamma)/tau) = log(e^{target:.6g} - {c / tau:.6g})"
+    theorem = main_theorem if method == "paper" else main_theorem_tight
     return Found(
         eps,
-        bound,
+        theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam),
         f"closed form of the {method} bound, {form}; it certifies every "
         f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)",
     )
@@ -357,12 +356,11 @@ def black_box_global(
         g = from_table([common.gamma, common.lower], ("high", "low"), name="class [lower, gamma]")
     else:
         g = utility
-    kwargs: dict[str, Any] = {"population": population, "context_mechanism": context_mechanism}
-    if not math.isnan(tau):
-        kwargs["tau"] = tau
+    floor = None if math.isnan(tau) else tau
 
     def bound(eps: float) -> float:
-        v = worst_model(family(eps), g, **kwargs).global_fairness.value
+        model = worst_model(family(eps), g, population=population, context_mechanism=context_mechanism, tau=floor)
+        v = model.global_fairness.value
         return math.inf if math.isnan(v) else v
 
     cls = f"{g.name}" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
@@ -403,29 +401,41 @@ def white_box(
     (:func:`fairaudit.metrics.utility_range.fairness_range`; ``proofs/unparsed.md`` §5); when the kernel puts no mass on
     that decision the range is a point and the function is L (L̄) itself, as without it.
     """
+    from fairaudit.metrics.utility_range import fairness_range
+
     target, kind = common.target, common.kind
     limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
     measure = local_fairness if kind == "local" else global_fairness
     name = "L" if kind == "local" else "L-bar"
 
-    def stated(eps: float) -> float:
+    unparsed = None if unparsed_decision is None else _decision_index(kernel, unparsed_decision)
+    if unparsed is not None and np.any(np.nan_to_num(kernel.probabilities[..., unparsed], nan=0.0) > 0):
+        label = format_label(kernel.decisions[unparsed])
+        name = f"upper end of {name} over every utility of {label!r} in [min g, max g]"
+    else:
+        unparsed = None  # (no mass on it: its utility's range is a point, the value is L itself)
+
+    def value(eps: float) -> float:
+        """L (L̄) behind ``family(eps)``, or its upper end over every utility of the unparsed decision."""
         try:
-            law = _law(kernel, family(eps), context_mechanism)
+            if unparsed is None:
+                law = _law(kernel, family(eps), context_mechanism)
+            else:
+                r = fairness_range(
+                    kernel, utility, unparsed, sensitive_mechanism=family(eps), context_mechanism=context_mechanism,
+                    population=population, lower_end=False,
+                )  # fmt: skip
         except InputError as exc:
             raise exc.under("kernel", keep_own=True) from None
-        v = measure(law, utility, population).value
+        if unparsed is None:
+            v = measure(law, utility, population).value
+        else:
+            v = (r.local_fairness if kind == "local" else r.global_fairness).upper
         return math.inf if math.isnan(v) else v
-
-    value: Callable[[float], float] = stated
-    if unparsed_decision is not None:
-        d = _decision_index(kernel, unparsed_decision)
-        if np.any(np.nan_to_num(kernel.probabilities[..., d], nan=0.0) > 0):
-            value = _upper_end(kind, family, kernel, utility, d, population, context_mechanism)
-            name = f"upper end of {name} over every utility of {format_label(kernel.decisions[d])!r} in [min g, max g]"
 
     monotone = (
         family.mixing
-        and value is stated
+        and unparsed is None
         and not utility.depends_on_group
         and (kind == "local" or population is None or _independent_and_whole(population))
     )
@@ -455,32 +465,6 @@ def _decision_index(kernel: Kernel, decision: int) -> int:
     if isinstance(decision, bool) or not isinstance(decision, (int, np.integer)) or not -n <= decision < n:
         raise InputError("unparsed_decision", f"must index one of the kernel's {n} decisions", decision)
     return int(decision) % n
-
-
-def _upper_end(
-    kind: str,
-    family: MechanismFamily,
-    kernel: Kernel,
-    utility: Utility,
-    decision: int,
-    population: Population | None,
-    context_mechanism: Mechanism | None,
-) -> Callable[[float], float]:
-    """ε ↦ the upper end of L (L̄) behind ``family(ε)`` over every utility of ``decision`` in [min g, max g]."""
-    from fairaudit.metrics.utility_range import fairness_range
-
-    def upper(eps: float) -> float:
-        try:
-            r = fairness_range(
-                kernel, utility, decision, sensitive_mechanism=family(eps), context_mechanism=context_mechanism,
-                population=population, lower_end=False,
-            )  # fmt: skip
-        except InputError as exc:
-            raise exc.under("kernel", keep_own=True) from None
-        v = (r.local_fairness if kind == "local" else r.global_fairness).upper
-        return math.inf if math.isnan(v) else v
-
-    return upper
 
 
 RR_COMPOSE_LIMIT = 512  # groups; above, white-box calibration behind randomized response never builds its matrix
@@ -517,14 +501,12 @@ def _white_box_floor(
     """Infeasible: the model misses the target at ε = 0; says why, and whether some larger ε meets it."""
     cause = f" ({'; '.join(why)})" if why else ""
     later = next((float(e) for e in grid[1:] if value(float(e)) <= limit), None)
-    also = (
-        ""
-        if later is None
-        else (
+    also = ""
+    if later is not None:
+        also = (
             f"; some larger epsilon meets it (e.g. {later:.6g} nats) but not every "
             "smaller one: the model's fairness is not monotone in epsilon"
         )
-    )
     return infeasible(
         f0,
         f"the model's {name} is {f0:.6g} nats > target "
@@ -548,11 +530,8 @@ def _scan(
     below the crossing meets the target, and every ε does when ε = +inf does; the reason says which it rests on.
     """
     lo, f_lo = 0.0, f0
-    how = (
-        f"{name} is non-decreasing in epsilon along the family, for a utility free of the group"
-        if monotone
-        else f"first crossing of a {len(grid)}-point scan, refined"
-    )
+    rising = f"{name} is non-decreasing in epsilon along the family, for a utility free of the group"
+    how = rising if monotone else f"first crossing of a {len(grid)}-point scan, refined"
     found: tuple[float, float, float, float] | None
     for eps in grid[1:]:  # (the first crossing of the grid, refined below)
         v = value(float(eps))
@@ -563,15 +542,11 @@ def _scan(
     else:  # no crossing on the grid: beyond it
         top = value(math.inf)
         if top <= limit:
-            why_every = (
-                f"and {name} is non-decreasing in epsilon along the family, for a utility free of the group"
-                if monotone
-                else f"and no point of the {len(grid)}-point scan exceeds it"
-            )
+            why_every = rising if monotone else f"no point of the {len(grid)}-point scan exceeds it"
             return Found(
                 math.inf,
                 top,
-                f"every epsilon meets the target: the model's {name} without privacy is {top:.6g} nats {why_every}",
+                f"every epsilon meets the target: the model's {name} without privacy is {top:.6g} nats and {why_every}",
             )
         found = bracket(value, limit, lo, f_lo, 2 * lo)
         if found is None:

@@ -98,14 +98,10 @@ class Calibration(Common):
 
     def __repr__(self) -> str:
         ratio = "" if self.target_impact_ratio is None else f" (impact ratio {self.target_impact_ratio:.6g})"
+        head = f"Calibration({self.method}, {self.kind}, target={self.target:.6g}{ratio}"
         if not self.feasible:
-            return (
-                f"Calibration({self.method}, {self.kind}, target={self.target:.6g}{ratio}: infeasible, {self.reason})"
-            )
-        return (
-            f"Calibration({self.method}, {self.kind}, target={self.target:.6g}{ratio}: epsilon={self.epsilon:.6g} nats, "
-            f"keep={self.keep_probability:.6g}, bound={self.bound:.6g})"
-        )
+            return f"{head}: infeasible, {self.reason})"
+        return f"{head}: epsilon={self.epsilon:.6g} nats, keep={self.keep_probability:.6g}, bound={self.bound:.6g})"
 
     def to_dict(self) -> Report:
         """The report dictionary (the JSON of ``fairaudit calibrate``).

@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,18 +19,17 @@ from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
 from fairaudit.base.outward import product_ends, rounding_error, sum_ends, widen_up
-from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.base.threshold_rule import box_point, threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.pair_search import (
     InnerProgram,
-    SearchResult,
     box_pairs,
     check_class,
     check_method,
     implied_floor,
     inner_witness,
+    pair_values,
     ratio_ceiling,
     search,
 )
@@ -185,7 +183,7 @@ def worst_utility(
         b_ub=None if a_ub is None or tau is None else np.full(a_ub.shape[0], -tau),
     )
     # (a pair (a, b), a != b, is compared where both rows are: no (n, n) masks, no (n, n, n_decisions) tables)
-    local = _utility_case(problem, "local", Qz, cell, lambda x: None if x is None else law.contexts[x])
+    local = _utility_case(problem, "local", Qz, cell)
     pu = np.nan_to_num(group_decision_law(law, population), nan=0.0)
     has = population.p_group > 0
     # P(u | a) = Σ_x P(x | a) Q[x, a, u]: P(x | a) carries n_x roundings, the product one, the sum n_x − 1; exact
@@ -193,9 +191,7 @@ def worst_utility(
     weights = population.probabilities > 0
     roundings = 2 * law.shape[0] + 1 if np.any(weights.sum(axis=0) > 1) else 0
     ends = product_ends(pu, roundings, np.any(weights[:, :, None] & (Qz > 0), axis=0))
-    global_ = _utility_case(
-        problem, "global", pu[None], has[None], lambda x: None, (ends[0][None], ends[1][None]), roundings
-    )
+    global_ = _utility_case(problem, "global", pu[None], has[None], (ends[0][None], ends[1][None]), roundings)
     return WorstUtility(
         local_fairness=local,
         global_fairness=global_,
@@ -236,7 +232,6 @@ def _utility_case(
     kind: str,
     P: FloatArray,
     rows: BoolArray,
-    label_x: Callable[[int | None], Hashable],
     ends: tuple[FloatArray, FloatArray] | None = None,
     roundings: int = 0,
 ) -> WorstCase:
@@ -273,14 +268,15 @@ def _utility_case(
             kind,
             ratio,
             nats_up(ratio),
-            context=label_x(x if kind == "local" else None),
+            context=problem.law.contexts[x] if kind == "local" else None,
             group=groups[a],
             other_group=groups[b],
             utility=problem.utility(h),
             reason="a decision is possible for one group and impossible for another" if math.isinf(ratio) else "",
         )
     flat = _pairs_of_rows(rows)  # (x, a, b), row-major
-    upper = _box_values(P, flat, lower, gamma)
+    rows_of = flat[:, 0] * P.shape[1]  # (P's rows of context x, one per group)
+    upper = pair_values(P.reshape(-1, P.shape[-1]), rows_of + flat[:, 1], rows_of + flat[:, 2], lower, gamma, None)[0]
     upper = np.asarray(widen_up(upper, widen)) if widen else upper
     if tau is not None and tau > 0:  # E[g | x, a] ≤ γ Σ_u P[x, a, u]: a law's rows sum to 1 within 1e-9
         upper = np.minimum(upper, ratio_ceiling(gamma, float(sum_ends(P if ends is None else ends[1])[0].max()), tau))
@@ -293,7 +289,22 @@ def _utility_case(
         r = problem.program.solve(high[x, a], low[x, b])
         return r if ends is None else inner_witness(r, low[x, a], high[x, b], inner)
 
-    return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)
+    searched = search(upper, solve)
+    if searched.index < 0:
+        return WorstCase.unmet(
+            kind, searched, "no utility in the class meets E[g | x, a] >= tau: " + (searched.reason or "")
+        )
+    r = searched.result
+    assert r is not None  # a maximising pair was found
+    x, a, b = flat[searched.index]
+    return WorstCase.searched(
+        kind,
+        searched,
+        context=problem.law.contexts[x] if kind == "local" else None,
+        group=groups[a],
+        other_group=groups[b],
+        utility=problem.utility(r.argmax) if r.argmax is not None else None,
+    )
 
 
 def _pairs_of_rows(rows: BoolArray) -> IntArray:
@@ -305,36 +316,3 @@ def _pairs_of_rows(rows: BoolArray) -> IntArray:
         keep = a != b
         out.append(np.column_stack([np.full(int(keep.sum()), x), a[keep], b[keep]]))
     return np.concatenate(out).astype(np.intp)
-
-
-def _box_values(P: FloatArray, flat: IntArray, lower: float, gamma: float) -> FloatArray:
-    """The box value of every program (x, a, b) of ``flat``, a chunk of programs at a time."""
-    out = np.empty(len(flat))
-    step = max(1, PAIR_BLOCK // (8 * max(1, P.shape[-1])))
-    for s in range(0, len(flat), step):
-        x, a, b = flat[s : s + step].T
-        out[s : s + step] = threshold_max_many(P[x, a], P[x, b], lower, gamma)[0]
-    return out
-
-
-def _searched_case(
-    problem: _UtilityProblem,
-    kind: str,
-    found: SearchResult,
-    flat: IntArray,
-    label_x: Callable[[int | None], Hashable],
-) -> WorstCase:
-    """The worst case of the search over programs; ``flat[i]`` = (x, a, b) (local) or (a, b) (global) of program i."""
-    r = found.result
-    if found.index < 0:
-        return WorstCase.unmet(kind, found, "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""))
-    assert r is not None  # a maximising pair was found
-    *lead, a, b = flat[found.index]
-    return WorstCase.searched(
-        kind,
-        found,
-        context=label_x(lead[0] if kind == "local" else None),
-        group=problem.law.groups[a],
-        other_group=problem.law.groups[b],
-        utility=problem.utility(r.argmax) if r.argmax is not None else None,
-    )

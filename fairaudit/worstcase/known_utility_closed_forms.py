@@ -14,7 +14,6 @@ by :func:`~fairaudit.worstcase.known_utility.worst_model`.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import replace
 from fractions import Fraction
 from typing import Any
@@ -30,7 +29,7 @@ from fairaudit.laws.tables import Kernel
 from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
 from fairaudit.worstcase.pair_search import pairwise_box
 from fairaudit.worstcase.randomized_response import RRWorst, rr_box, rr_theta, rr_witness_point
-from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, nats_up
+from fairaudit.worstcase.worst_cases import WorstCase, nats_up
 
 
 def _threshold_case(
@@ -91,15 +90,14 @@ def randomized_response_cases(
     if independent and decision_only:
         lo, hi = float(lo_x[0]), float(hi_x[0])
         w = rr_box(rr, lo, hi, floor)
-        n_released_contexts = problem.n_released_contexts
-        high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
-        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, high, low)
+        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, hot_hi[0], hot_lo[0])
         case = _rr_case(problem, "global", w, None, kern)
         a, b = (case.group, case.other_group)
         pair = (problem.groups.index(a), problem.groups.index(b))
         h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor, *pair) if same_x else None
         point = None if h is None else np.array([h] * len(problem.contexts), dtype=object)
-        duals = _screens(problem, [(None, rr_theta(rr, lo, hi, floor))], *pair)
+        theta = rr_theta(rr, lo, hi, floor)  # (the one-floor threshold of the pair's program, for the certificate)
+        duals = () if theta is None else (problem.dual(None, *pair, theta=theta),)
         return local, replace(case, duals=duals, witness_point=point)
     return local, None
 
@@ -118,7 +116,7 @@ def _rr_local(
     With a binding τ, §3 Proposition 3b per context, on the floor :func:`_floor_behind` gives. ``hot_hi``/``hot_lo``:
     the one-hot rows of the decisions of largest and smallest g per context.
     """
-    live, n_released_contexts = problem.live, problem.n_released_contexts
+    live = problem.live
     ranges, range_of = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
     range_of = range_of.ravel()
     best_x, best_w = -1, None
@@ -131,36 +129,18 @@ def _rr_local(
     assert best_w is not None  # (some context is live)
     lo, hi = float(lo_x[best_x]), float(hi_x[best_x])
     if not problem.binding:  # the threshold kernel of the maximising context, in every released context
-        high = np.repeat(hot_hi[best_x][None], n_released_contexts, 0)
-        low = np.repeat(hot_lo[best_x][None], n_released_contexts, 0)
-        kern = _rr_kernel(problem, best_w, lo, hi, None, high, low)
+        kern = _rr_kernel(problem, best_w, lo, hi, None, hot_hi[best_x], hot_lo[best_x])
     elif problem.same_x:
         kern = _rr_kernel(problem, best_w, lo, hi, best_x, hot_hi, hot_lo)
     else:  # g(u) behind a context filter: the same h in every released context
-        high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
-        kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, high, low)
+        kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, hot_hi[0], hot_lo[0])
     case = _rr_case(problem, "local", best_w, best_x, kern)
     # each live context's proof for the pair (0, 1), which stands for every pair (``proofs/verification.md`` §4), and
     # the maximiser's point, exactly, where the floor binds (verify reads the lower end off it)
     thetas = [(x, rr_theta(rr, float(lo_x[x]), float(hi_x[x]), floor)) for x in np.flatnonzero(live).tolist()]
+    duals = tuple(problem.dual(x, 0, 1, theta=theta) for x, theta in thetas if theta is not None)
     h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor) if problem.binding and problem.same_x else None
-    return replace(
-        case, duals=_screens(problem, thetas, 0, 1), witness_point=None if h is None else np.array(h, dtype=object)
-    )
-
-
-def _screens(
-    problem: ModelProblem, thetas: Sequence[tuple[int | None, Fraction | None]], a: int, b: int
-) -> tuple[ProgramDual, ...]:
-    """The one-floor thresholds θ of the pair (a, b)'s programs (context x, or None for L̄), for the certificate."""
-    groups, contexts = problem.groups, problem.contexts
-    return tuple(
-        ProgramDual(
-            context=None if x is None else contexts[x], group=groups[a], other_group=groups[b], floors=None, theta=theta
-        )
-        for x, theta in thetas
-        if theta is not None
-    )
+    return replace(case, duals=duals, witness_point=None if h is None else np.array(h, dtype=object))
 
 
 def _floor_behind(problem: ModelProblem) -> float:
@@ -184,10 +164,12 @@ def _rr_kernel(
 ) -> Kernel:
     """The worst kernel behind k-ary RR.
 
-    At context x (every context when None) the mix of the decisions ``high``/``low`` that gives h; every other
-    context all ``high`` (so it meets τ); a threshold h as one-hot rows.
+    At context x (every context when None) the mix of the decisions ``high``/``low`` (one-hot rows per released
+    context, or one row for all of them) that gives h; every other context all ``high`` (so it meets τ); a threshold
+    h as one-hot rows.
     """
     nXr, nAr, nU = problem.n_released_contexts, problem.n_released_groups, problem.g.shape[2]
+    high, low = np.broadcast_to(high, (nXr, nU)), np.broadcast_to(low, (nXr, nU))
     h = w.vector(nAr)
     frac = np.clip((h - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones(nAr)
     table = np.zeros((nXr, nAr, nU))
@@ -230,10 +212,10 @@ def boxes_by_range(problem: ModelProblem, MA: FloatArray) -> tuple[FloatArray, I
     g(u)). Returns the ranges (n_ranges, 2), the range of each context, and the values (n_ranges, nA, nA), so
     that box[x] = values[range_of[x]]; -inf on the diagonal. (Only the local search uses them.)
     """
-    g, gmin, gmax = problem.g, problem.gmin, problem.gmax
+    g = problem.g
     nX, nA = g.shape[:2]
-    if problem.utility.values.ndim == 1:
-        ranges, range_of = np.array([[gmin[0], gmax[0]]]), np.zeros(nX, dtype=np.intp)
+    if problem.utility.values.ndim == 1:  # (g[x, a] is g(u) in every cell)
+        ranges, range_of = np.array([[g[0, 0].min(), g[0, 0].max()]]), np.zeros(nX, dtype=np.intp)
     else:
         ranges, range_of = np.unique(
             np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0, return_inverse=True
@@ -255,14 +237,8 @@ def local_threshold(problem: ModelProblem, MA: FloatArray, boxes: tuple[FloatArr
     x = int(np.argmax(live & (best_by_range[range_of] == best_by_range.max())))  # the first live maximiser
     best_range = range_of[x]
     a, b = np.unravel_index(int(box_by_range[best_range].argmax()), (nA, nA))
-    _, k_top, order_top = threshold_max_many(MA[a], MA[b], ranges[best_range, 0], ranges[best_range, 1])
-    top = order_top[: int(k_top)]
-    hi_u, lo_u = int(g[x, 0].argmax()), int(g[x, 0].argmin())
-    table = np.zeros((problem.n_released_contexts, problem.n_released_groups, nU))
-    table[..., lo_u] = 1.0
-    table[:, top, lo_u] = 0.0
-    table[:, top, hi_u] = 1.0
-    kern = problem.kernel(table, exact=True)
+    high, low = onehot(g[x, 0].argmax(), nU), onehot(g[x, 0].argmin(), nU)
+    kern = _threshold_kernel(problem, MA, int(a), int(b), ranges[best_range, 0], ranges[best_range, 1], high, low)
     r = float(box_by_range[best_range, a, b])
     reason = "a released group is possible for one group and impossible for another" if math.isinf(r) else ""
     return _threshold_case(problem, "local", r, nats_up(r), x, int(a), int(b), kern, reason=reason)
@@ -292,11 +268,20 @@ def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
     vals = pairwise_box(MA[present], lo_g, hi_g, None)[0]
     np.fill_diagonal(vals, -np.inf)
     i, j = np.unravel_index(int(vals.argmax()), vals.shape)
-    a, b = present[i], present[j]
-    _, k_top, order_top = threshold_max_many(MA[a], MA[b], lo_g, hi_g)
-    top = order_top[: int(k_top)]
-    table = np.repeat(onehot(weighted_g.argmin(-1), nU)[:, None, :], problem.n_released_groups, axis=1)
-    table[:, top, :] = onehot(weighted_g.argmax(-1), nU)[:, None, :]
-    kern = problem.kernel(table, exact=True)
+    a, b = int(present[i]), int(present[j])
+    high, low = onehot(weighted_g.argmax(-1), nU), onehot(weighted_g.argmin(-1), nU)
+    kern = _threshold_kernel(problem, MA, a, b, lo_g, hi_g, high, low)
     r = float(vals[i, j])
-    return _threshold_case(problem, "global", r, nats_up(r), None, int(a), int(b), kern)
+    return _threshold_case(problem, "global", r, nats_up(r), None, a, b, kern)
+
+
+def _threshold_kernel(
+    problem: ModelProblem, MA: FloatArray, a: int, b: int, lo: float, hi: float, high: FloatArray, low: FloatArray
+) -> Kernel:
+    """The threshold kernel of the pair (a, b) over the box [lo, hi]: the decisions ``high`` on the released groups of
+    its prefix, ``low`` on the others (one-hot rows, per released context or one row for all of them)."""
+    _, k, order = threshold_max_many(MA[a], MA[b], lo, hi)
+    shape = (problem.n_released_contexts, problem.g.shape[2])
+    table = np.repeat(np.broadcast_to(low, shape)[:, None, :], problem.n_released_groups, axis=1)
+    table[:, order[: int(k)], :] = np.broadcast_to(high, shape)[:, None, :]
+    return problem.kernel(table, exact=True)

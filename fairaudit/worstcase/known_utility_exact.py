@@ -16,6 +16,7 @@ the lower end from below.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import operator
 from collections.abc import Callable, Sequence
@@ -49,20 +50,17 @@ def exact_result(
     optimum: RatioOptimum,
     p: Sequence[Fraction],
     q: Sequence[Fraction],
-    solver_status: str,
 ) -> FractionalResult | None:
     """The :class:`FractionalResult` of a program solved exactly, or None.
 
     Parameters
     ----------
     result : callable
-        Makes the result from its remaining fields (``method``, ``p``, ``q``, ``lower`` and ``upper`` given).
+        Makes the result from its remaining fields (``method`` and ``solver_status`` given).
     optimum : RatioOptimum
         :func:`~fairaudit.base.exact_ratio.maximize_ratio_over_product`'s outcome.
     p, q : sequences of Fraction, shape (n,)
         The exact numerator and denominator it was solved for.
-    solver_status : str
-        The result's ``solver_status``.
 
     Returns
     -------
@@ -78,14 +76,13 @@ def exact_result(
     """
     if optimum.status == "infeasible":  # proved exactly: the polytope is empty
         reason = "the constraints are inconsistent: no feasible h"
-        return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
+        return result(value=math.nan, argmax=None, status="infeasible", reason=reason)
     if optimum.status == "zero_denominator" and optimum.point is not None:
         at = optimum.point  # a vertex of the polytope, exactly
         if sum(map(operator.mul, q, at)) == 0 < sum(map(operator.mul, p, at)):
             point = np.array([float(x) for x in at])
             reason = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)"
-            return result(value=math.inf, argmax=point, status="unbounded", solver_status=solver_status,
-                          reason=reason, certified=True)  # fmt: skip
+            return result(value=math.inf, argmax=point, status="unbounded", reason=reason, certified=True)
     if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
         return None
     value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
@@ -93,7 +90,6 @@ def exact_result(
         value=value,
         argmax=np.array([float(x) for x in optimum.point]),
         status="optimal",
-        solver_status=solver_status,
         reason="",
         certified=True,
         witness=witness,
@@ -214,11 +210,10 @@ class ExactPrograms:
                 b_ub += [Fraction(1), Fraction(-1)]
             # −E[g | x, b] ≤ −τ for the live contexts whose rows the block holds (all of them in one block)
             xs = [x for x in (released if problem.same_x else range(g.shape[0])) if live[x]] if self._floors else []
-            for x in xs:
-                for b in range(nA):
-                    full = _coefficients(MA, MX, g, self._u_only, x, b)
-                    a_ub.append([-v for v in full[i * width : (i + 1) * width]])
-                    b_ub.append(-tau)
+            for x, b in itertools.product(xs, range(nA)):
+                full = _coefficients(MA, MX, g, self._u_only, x, b)
+                a_ub.append([-v for v in full[i * width : (i + 1) * width]])
+                b_ub.append(-tau)
             blocks.append(Polytope(lower, upper, a_ub, b_ub, width))
         return _End(MA, MX, g, self._u_only, blocks, width)
 
@@ -233,10 +228,9 @@ class ExactPrograms:
         for i in range(len(end.blocks)):
             xs = [x for x in ([i] if problem.same_x else range(problem.g.shape[0])) if problem.live[x]]
             start += cells
-            for x in xs:
-                for b in range(n_a):
-                    out[(x, b)] = y[start]
-                    start += 1
+            for x, b in itertools.product(xs, range(n_a)):
+                out[(x, b)] = y[start]
+                start += 1
         return tuple(out.values())
 
     def local(self, x: int, a: int, b: int) -> Callable[[_End], tuple[ObjectArray, ObjectArray]]:
@@ -270,15 +264,15 @@ class ExactPrograms:
         ends = self._built()
         if ends is None:
             return None
-        result = functools.partial(FractionalResult, method="lp")
         status = f"{rounded.solver_status}; {EXACT_CROSSOVER} (exact: {WHY})"
+        result = functools.partial(FractionalResult, method="lp", solver_status=status)
 
         def optimum(end: _End) -> tuple[RatioOptimum, list[Fraction], list[Fraction]]:
             p, q = data(end)
             return maximize_ratio_over_product(end.blocks, end.split(p), end.split(q)), list(p), list(q)
 
         high, p, q = optimum(ends[-1])
-        found = exact_result(result, high, p, q, status)
+        found = exact_result(result, high, p, q)
         if found is not None and found.status == "optimal" and high.multipliers is not None and self._floors:
             found = replace(found, exact_dual=(self._floor_multipliers(ends[-1], high.multipliers),))
         if found is None or len(ends) == 1 or found.status != "optimal":

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any, SupportsIndex
 
 import numpy as np
@@ -30,7 +31,7 @@ from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import check_method
 from fairaudit.worstcase.randomized_response import rr_law
-from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
+from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, WorstModel
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -49,8 +50,6 @@ class ModelProblem:
     floor: float  # τ, or -inf without one
     group_free: bool  # g does not depend on the group
     decision_only: bool  # g depends on the decision only
-    gmin: FloatArray  # min and max of g per context
-    gmax: FloatArray
     binding: bool  # τ > E[g | x, a]'s least value (reach) in some live context and group
     independent: bool  # X ⊥ A in the population, exactly (its fast paths use one weight P(x) per context)
     assumptions: tuple[Assumption, ...]
@@ -112,6 +111,15 @@ class ModelProblem:
         with np.errstate(over="ignore"):  # (ratios of utilities as small as e^-710 overflow; only E[g | a] is kept)
             return global_fairness(law, self.utility, self.population).expected_utility
 
+    def dual(
+        self, x: int | None, a: int, b: int, floors: FloatArray | None = None, theta: float | Fraction | None = None
+    ) -> ProgramDual:
+        """The proof of the program at context x (None for L̄) for the pair (a, b): the floors' ν or a screen's θ."""
+        context = None if x is None else self.contexts[x]
+        return ProgramDual(
+            context=context, group=self.groups[a], other_group=self.groups[b], floors=floors, theta=theta
+        )
+
     def result(self, local: WorstCase, global_: WorstCase) -> WorstModel:
         return WorstModel(
             local_fairness=local,
@@ -144,13 +152,8 @@ def model_problem(
         tau = nonnegative(tau, "tau")
     groups = mechanism.inputs
     if context_mechanism is None:
-        contexts = (
-            population.contexts
-            if population is not None
-            else utility.contexts
-            if utility.contexts is not None
-            else ("all",)
-        )
+        default = ("all",) if utility.contexts is None else utility.contexts
+        contexts = population.contexts if population is not None else default
         context_mechanism = identity(contexts, name="identity on contexts")
     if not isinstance(context_mechanism, Mechanism):
         raise InputError("context_mechanism", "must be a Mechanism", type(context_mechanism).__name__)
@@ -166,13 +169,8 @@ def model_problem(
             (list(map(format_label, population.contexts)), list(map(format_label, population.groups))),
         )
     g = np.asarray(utility.table(contexts, groups, utility.decisions), dtype=float)  # (nX, nA, nU), a view for g(u)
-    nX = g.shape[0]
     live = population.p_context > 0
     floor = -math.inf if tau is None else tau
-    if utility.values.ndim == 1:
-        gmin, gmax = np.full(nX, float(utility.values.min())), np.full(nX, float(utility.values.max()))
-    else:
-        gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))  # per context
     assumptions = check_assumptions(mechanism, population=population) + (
         Assumption("g is the given utility", "checked", f"{utility!r}"),
     )
@@ -191,8 +189,6 @@ def model_problem(
         floor=floor,
         group_free=not utility.depends_on_group,
         decision_only=utility.values.ndim == 1 or not (utility.depends_on_group or utility.depends_on_context),
-        gmin=gmin,
-        gmax=gmax,
         binding=bool(np.any(floor > utility_reach(g, mechanism, context_mechanism)[1][live])),
         independent=exactly_independent(population.probabilities),
         assumptions=assumptions,

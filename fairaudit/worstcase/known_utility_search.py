@@ -61,7 +61,7 @@ def local_search(
     reach_hi, reach_lo = problem.reach
     closed = np.full(len(triples), np.inf)  # the closed-form bounds, each rounded up from E[g | x, a]'s bounds
     if tau is not None and tau > 0:
-        closed = np.minimum(closed, up(reach_hi[triples[:, 0], triples[:, 1]] / tau))
+        closed = up(reach_hi[triples[:, 0], triples[:, 1]] / tau)
     coefficients = [[_Coefficients.of(space, x, b) for b in range(nA)] if live[x] else [] for x in range(g.shape[0])]
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
@@ -78,36 +78,22 @@ def local_search(
         closed = np.minimum(closed, crude)
     upper = np.minimum(upper, closed)
     inexact = max((c.roundings for row in coefficients for c in row), default=0)
-    if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
-        # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
-        for context in xs:
-            P = np.stack([c.value for c in coefficients[context]])
-            v = _relaxation(P, space.lo, space.hi, floor, inexact)
-            at = triples[:, 0] == context
-            upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
     screens = np.full(len(triples), np.nan)  # each program's one-floor threshold θ, for the certificate
-    # every program's proof over the model's table, which verify checks: its one-floor threshold θ
     relaxed = np.full(len(triples), np.inf)
     for context in xs:
-        v, theta = _table_relaxation(
-            *_as_table(np.stack([c.value for c in coefficients[context]]), space, g),
-            tau,
-            inexact + (space.lo is not None),
-        )
+        P = np.stack([c.value for c in coefficients[context]])
         at = triples[:, 0] == context
-        relaxed[at], screens[at] = v[triples[at, 1], triples[at, 2]], theta[triples[at, 1], triples[at, 2]]
+        a, b = triples[at, 1], triples[at, 2]
+        if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
+            # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
+            upper[at] = np.minimum(upper[at], _relaxation(P, space.lo, space.hi, floor, inexact)[a, b])
+        # every program's proof over the model's table, which verify checks: its one-floor threshold θ
+        v, theta = _table_relaxation(*_as_table(P, space, g), tau, inexact + (space.lo is not None))
+        relaxed[at], screens[at] = v[a, b], theta[a, b]
     screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
     if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
         upper = _lowered(upper, relaxed)
-    programs = ExactPrograms(problem, space.lo is not None, space.floors)
-
-    def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
-        x, a, b = triples[i]
-        return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
-
-    evidence = _Evidence.of(problem, "local", triples, space, screens)
-    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, "local", found, triples, space, evidence, pair)
+    return _searched(problem, "local", triples, space, pair, inexact, upper, closed, screens)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -143,28 +129,44 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         return coefficients[position[pairs[i, 0]]], coefficients[position[pairs[i, 1]]]
 
     inexact = max(c.roundings for c in coefficients)
+    P = np.stack([c.value for c in coefficients])
+    a, b = position[pairs[:, 0]], position[pairs[:, 1]]  # (each pair's rows of P)
     if space.lo is not None and space.hi is not None and problem.method != "lp":
-        P = np.stack([c.value for c in coefficients])
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
-        upper = np.minimum(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
-    screens = np.full(len(pairs), np.nan)
+        upper = np.minimum(upper, v[a, b])
     # every program's proof over the model's table (as local_search)
-    table, n_u = _as_table(np.stack([c.value for c in coefficients]), space, g)
-    v, theta = _table_relaxation(table, n_u, tau, inexact + (space.lo is not None))
-    relaxed = v[position[pairs[:, 0]], position[pairs[:, 1]]]
-    if tau:
-        screens = _screens(theta[position[pairs[:, 0]], position[pairs[:, 1]]], relaxed, tau, reach[pairs[:, 0]])
+    v, theta = _table_relaxation(*_as_table(P, space, g), tau, inexact + (space.lo is not None))
+    relaxed = v[a, b]
+    screens = _screens(theta[a, b], relaxed, tau, reach[pairs[:, 0]]) if tau else np.full(len(pairs), np.nan)
     if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
         upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
+    return _searched(problem, "global", global_triples, space, pair, inexact, upper, closed, screens)
+
+
+def _searched(
+    problem: ModelProblem,
+    kind: str,
+    triples: IntArray,
+    space: _ModelSpace,
+    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
+    inexact: int,
+    upper: FloatArray,
+    closed: FloatArray,
+    screens: FloatArray,
+) -> WorstCase:
+    """The search over the programs ``triples[i]`` = (x, a, b) (x = -1 for L̄), in decreasing order of ``upper``; each
+    solved by :func:`_solver`, exactly where its rounded form does not settle it, its proofs kept in :class:`_Evidence`
+    (none without floors: no ν to keep)."""
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
-        return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
+        x, a, b = (int(v) for v in triples[i])
+        return programs.solve(programs.local(x, a, b) if kind == "local" else programs.global_(a, b), rounded)
 
-    evidence = _Evidence.of(problem, "global", global_triples, space, screens)
+    evidence = _Evidence(problem, kind, triples, screens) if space.floors else None
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, "global", found, global_triples, space, evidence, pair)
+    return _model_case(problem, kind, found, triples, space, evidence, pair)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -174,14 +176,23 @@ def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundi
     exact ratio is at most (1 + γ)/(1 − γ) ≤ 1 + 3γ times the computed one, and a point with P[b]·h ≥ τ has
     P̂[b]·h ≥ (1 − γ)τ, the floor the relaxation keeps.
     """
-    gamma = float(rounding_error(roundings))
     if floor is None:
-        v = pairwise_box(P, lo, hi, None)[0]
-    else:
-        relaxed = pairwise_box(P, lo, hi, float(down(floor * (1 - gamma))) if roundings else floor)[1]
-        assert relaxed is not None  # (a floor was given)
-        v = relaxed
-    return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
+        return _widened(pairwise_box(P, lo, hi, None)[0], roundings)
+    relaxed = pairwise_box(P, lo, hi, _kept_floor(floor, roundings))[1]
+    assert relaxed is not None  # (a floor was given)
+    return _widened(relaxed, roundings)
+
+
+def _kept_floor(floor: float, roundings: int) -> float:
+    """The floor a relaxation on coefficients computed with ``roundings`` roundings keeps: (1 − γ)·``floor`` rounded
+    down, γ = ``rounding_error(roundings)`` (P̂[b]·h ≥ (1 − γ)τ where P[b]·h ≥ τ); ``floor`` itself when exact."""
+    return float(down(floor * (1 - float(rounding_error(roundings))))) if roundings else floor
+
+
+def _widened(v: FloatArray, roundings: int) -> FloatArray:
+    """Upper bounds ``v`` on the computed coefficients' ratios widened to the exact ones': times 1 + 3γ (the ratio's
+    error (1 + γ)/(1 − γ) ≤ 1 + 3γ, γ = ``rounding_error(roundings)``), rounded up; ``v`` itself when exact."""
+    return np.asarray(widen_up(v, 3 * float(rounding_error(roundings)))) if roundings else v
 
 
 def _as_table(P: FloatArray, space: _ModelSpace, g: FloatArray) -> tuple[FloatArray, int]:
@@ -200,14 +211,13 @@ def _table_relaxation(P: FloatArray, n_u: int, tau: float | None, roundings: int
     (:func:`~fairaudit.base.table_relaxation.relaxation_bounds`) on the computed coefficients, then widened as
     :func:`_relaxation`'s for their roundings (the floor kept is (1 − γ)τ, rounded down); and the threshold θ that
     proves each (to nearest; NaN without a floor), which the certificate records (``screens``)."""
-    gamma = float(rounding_error(roundings))
-    t = None if not tau else Fraction(float(down(tau * (1 - gamma))) if roundings else tau)
+    t = None if not tau else Fraction(_kept_floor(tau, roundings))
     forms = {a: [[Fraction(v) for v in row] for row in P[a].reshape(-1, n_u).tolist()] for a in range(len(P))}
     v, theta = np.full((len(P), len(P)), np.inf), np.full((len(P), len(P)), np.nan)
     for (a, b), (bound, at) in relaxation_bounds(forms, dict.fromkeys(forms, t)).items():
         v[a, b] = fraction_up(bound) if bound != math.inf else np.inf
         theta[a, b] = np.nan if at is None else float(at)
-    return (np.asarray(widen_up(v, 3 * gamma)) if roundings else v), theta
+    return _widened(v, roundings), theta
 
 
 def _lowered(upper: FloatArray, relaxed: FloatArray) -> FloatArray:
@@ -268,9 +278,7 @@ def _solver(
         return pair(i)[1].low
 
     if space.lo is not None and space.hi is not None and problem.method != "lp":
-        tau = None if space.rows is None else problem.tau
-        if tau is not None and roundings:
-            tau = float(down(tau * (1 - float(rounding_error(roundings)))))  # P̂[b]·h ≥ (1 − γ)τ where P[b]·h ≥ τ
+        tau = None if space.rows is None or problem.tau is None else _kept_floor(problem.tau, roundings)
         inner = relaxed_first(num, den, space.lo, space.hi, tau, space.rows, space.program)
     else:
 
@@ -320,7 +328,7 @@ class _Coefficients:
 
     @classmethod
     def of(cls, space: _ModelSpace, x: int, b: int) -> _Coefficients:
-        value, roundings, nonzero = space.coef(x, b), space.roundings(x, b), space.nonzero(x, b)
+        value, roundings, nonzero = space.cells(x, b)
         low, high = product_ends(value, roundings, nonzero)
         return cls(value, low, high, int(roundings.max(initial=0)))
 
@@ -328,11 +336,12 @@ class _Coefficients:
     def weighted(cls, space: _ModelSpace, xs: IntArray, b: int, weights: FloatArray, single: bool) -> _Coefficients:
         """Σ_x w_x · coef(x, b): a weight is P(x | b), computed with n_x roundings; the products and the sum add
         one and n_x − 1 more (none when one context has P(x, b) > 0: its weight is exactly 1)."""
-        value = functools.reduce(operator.add, [w * space.coef(x, b) for x, w in zip(xs, weights)])
-        roundings = np.max([space.roundings(x, b) for x in xs], axis=0)
+        parts = [space.cells(x, b) for x in xs]
+        value = functools.reduce(operator.add, [w * v for w, (v, _, _) in zip(weights, parts)])
+        roundings = np.max([r for _, r, _ in parts], axis=0)
         if not single:
             roundings = roundings + 2 * space.n_contexts + 1
-        nonzero = functools.reduce(operator.or_, [space.nonzero(x, b) for x in xs])
+        nonzero = functools.reduce(operator.or_, [nz for _, _, nz in parts])
         low, high = product_ends(value, roundings, nonzero)
         return cls(value, low, high, int(roundings.max(initial=0)))
 
@@ -341,9 +350,8 @@ class _Coefficients:
 class _ModelSpace:
     """The polytope of reachable kernels in G-space (g depends on u only) or kernel space."""
 
-    coef: Callable[[SupportsIndex, SupportsIndex], FloatArray]  # (x, b) -> coefficients of E[g | x, b]
-    roundings: Callable[[SupportsIndex, SupportsIndex], IntArray]  # (x, b) -> roundings of each coefficient
-    nonzero: Callable[[SupportsIndex, SupportsIndex], BoolArray]  # (x, b) -> whether each is exactly positive
+    # (x, b) -> the coefficients of E[g | x, b], the roundings of each, and whether each is exactly positive
+    cells: Callable[[SupportsIndex, SupportsIndex], tuple[FloatArray, IntArray, BoolArray]]
     n_contexts: int
     to_kernel: Callable[[npt.NDArray[Any]], npt.NDArray[Any]]  # (exact for Fractions)
     program: Callable[[], FractionalProgram]  # built on first use, on the τ rows rounded up
@@ -358,43 +366,25 @@ def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
     """The polytope of the problem's programs, each product of an entry of M_A or M_X carrying the roundings the
     mechanism's floats carry relative to its exact law (randomized response's, computed from e^ε; a matrix is its own
     law)."""
-    entries = (problem.mechanism.matrix_roundings, problem.context_mechanism.matrix_roundings)
-    return _model_program(MA, problem.context_mechanism.matrix, problem.g, problem.live, problem.tau,
-                          problem.decision_only, problem.binding, entries)  # fmt: skip
-
-
-def _model_program(
-    MA: FloatArray,
-    MX: FloatArray,
-    g: FloatArray,
-    live: BoolArray,
-    tau: float | None,
-    u_only: bool,
-    with_tau: bool,
-    entries: tuple[int, int],
-) -> _ModelSpace:
     import scipy.sparse as sp
 
+    MX, g, live, tau = problem.context_mechanism.matrix, problem.g, problem.live, problem.tau
+    u_only = problem.decision_only
+    entries = (problem.mechanism.matrix_roundings, problem.context_mechanism.matrix_roundings)
     nX, nA, nU = g.shape
     nXr, nAr = MX.shape[1], MA.shape[1]
     xs = np.flatnonzero(live)
     shape = (nXr, nAr) if u_only else (nXr, nAr, nU)
     width = math.prod(shape)
 
-    def factors(x: SupportsIndex, b: SupportsIndex) -> tuple[npt.NDArray[Any], ...]:
-        return coefficient_factors(MA, MX, g, u_only, x, b)
-
-    def coef(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
-        return functools.reduce(operator.mul, factors(x, b)).ravel()
-
-    def roundings(x: SupportsIndex, b: SupportsIndex) -> IntArray:
-        """The roundings of each coefficient: its product's, plus those its entries of M_X and M_A carry."""
-        f = factors(x, b)
+    def cells(x: SupportsIndex, b: SupportsIndex) -> tuple[FloatArray, IntArray, BoolArray]:
+        """The coefficients of E[g | x, b]; the roundings of each (its product's, plus those its entries of M_X and
+        M_A carry); whether each is exactly positive."""
+        f = coefficient_factors(MA, MX, g, u_only, x, b)
         extra = entries[1] * (f[0] != 0) + entries[0] * (f[1] != 0)
-        return np.broadcast_to(product_roundings(*f) + extra, shape).ravel()
-
-    def nonzero(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
-        return functools.reduce(operator.and_, [f != 0 for f in factors(x, b)]).ravel()
+        roundings = np.broadcast_to(product_roundings(*f) + extra, shape).ravel()
+        nonzero = functools.reduce(operator.and_, [v != 0 for v in f]).ravel()
+        return functools.reduce(operator.mul, f).ravel(), roundings, nonzero
 
     if u_only:
         g_row = g[xs[0], 0] if xs.size else g[0, 0]
@@ -420,19 +410,15 @@ def _model_program(
 
         a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
         equalities = [(a_eq, np.ones(nXr * nAr), "eq")]
-    # the τ rows (G-space: τ above E[g]'s least, ``with_tau``), rounded up for the program (a relaxation) and down
-    # for the witness's constraint
+    # the τ rows (G-space: τ above E[g]'s least, ``problem.binding``), rounded up for the program (a relaxation) and
+    # down for the witness's constraint
     rows: FloatArray | None = None
     outer: FloatArray | None = None
     below: list[Any] = []
-    if with_tau and tau is not None and (u_only or tau > 0):
-        pairs = [(x, b) for x in xs for b in range(nA)]
-
-        def stacked(f: Callable[[SupportsIndex, SupportsIndex], npt.NDArray[Any]]) -> npt.NDArray[Any]:
-            return np.array([f(x, b) for x, b in pairs]).reshape(len(pairs), width)
-
-        rows = stacked(coef)
-        low, outer = product_ends(rows, stacked(roundings), stacked(nonzero))
+    if problem.binding and tau is not None and (u_only or tau > 0):
+        parts = [cells(x, b) for x in xs for b in range(nA)]
+        rows, counts, nonzero = (np.array([part[i] for part in parts]).reshape(len(parts), width) for i in range(3))
+        low, outer = product_ends(rows, counts, nonzero)
         below = [(-low, np.full(len(rows), -float(tau)), "le")]
 
     def build() -> FractionalProgram:
@@ -442,9 +428,7 @@ def _model_program(
         return FractionalProgram(width, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub, **eq)
 
     return _ModelSpace(
-        coef=coef,
-        roundings=roundings,
-        nonzero=nonzero,
+        cells=cells,
         n_contexts=nX,
         to_kernel=to_kernel,
         program=functools.cache(build),  # (built once, at the first LP)
@@ -462,19 +446,13 @@ class _Evidence:
     programs an LP bounded, where floors bind (without them the LP's rows are the simplex's, whose multipliers are
     no floors' ν). The floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps
     its context's only behind the identity on the context (every context's floors bind its rows otherwise).
-    :meth:`of` gives None without floors (the bound without them is the value)."""
+    None without floors (the bound without them is the value)."""
 
     def __init__(self, problem: ModelProblem, kind: str, triples: IntArray, screens: FloatArray | None) -> None:
         self.problem, self.kind, self.triples = problem, kind, triples
         self.live = np.flatnonzero(problem.live)
         self.duals: list[ProgramDual] = []
         self.screens = screens  # each program's one-floor threshold θ (NaN: none)
-
-    @classmethod
-    def of(
-        cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace, screens: FloatArray | None = None
-    ) -> _Evidence | None:
-        return cls(problem, kind, triples, screens) if space.floors else None  # (no floors: no ν to keep)
 
     def keep(self, i: int, r: FractionalResult) -> None:
         """Program i's dual, when an LP's dual certified its value."""
@@ -492,23 +470,20 @@ class _Evidence:
             floors[self.live] = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0).reshape(self.live.size, n_a)
         x, a, b = (int(v) for v in self.triples[i])
         local = self.kind == "local"
-        groups = self.problem.groups
         own = local and self.problem.same_x  # (L at x binds the rows of x alone)
-        self.duals.append(ProgramDual(context=self.problem.contexts[x] if local else None, group=groups[a],
-                                      other_group=groups[b], floors=floors[x] if own else floors))  # fmt: skip
+        self.duals.append(self.problem.dual(x if local else None, a, b, floors=floors[x] if own else floors))
 
     def all(self) -> tuple[ProgramDual, ...]:
         """The LP's multipliers kept, then every program's screen threshold θ (verify takes the least bound of the
         two: a value lowered to its closed-form bound, below what the LP's multipliers prove, rests on θ)."""
         if self.screens is None:
             return tuple(self.duals)
-        groups, contexts, local = self.problem.groups, self.problem.contexts, self.kind == "local"
+        local = self.kind == "local"
         screens = [
-            ProgramDual(context=contexts[x] if local else None, group=groups[a], other_group=groups[b], floors=None,
-                        theta=float(self.screens[i]))
+            self.problem.dual(x if local else None, a, b, theta=float(self.screens[i]))
             for i, (x, a, b) in enumerate(self.triples.tolist())
             if not math.isnan(self.screens[i])
-        ]  # fmt: skip
+        ]
         return (*self.duals, *screens)
 
 
@@ -533,25 +508,23 @@ def _model_case(
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
     duals = () if evidence is None else evidence.all()
     point: npt.NDArray[Any] | None = None
-    recorded = r.argmax is not None and (bool(duals) or space.lo is None)  # (over the model's table: always)
-    vertex = None
-    if recorded:
+    if r.argmax is not None and (bool(duals) or space.lo is None):  # (recorded over the model's table: always)
         r, vertex = _exact_witness(r, *pair(found.index), space)
-    if recorded and not problem.same_x:  # the table over every released context
-        table = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
-        point = table if vertex is None else space.to_kernel(vertex)
-    elif recorded:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
+        argmax = np.asarray(r.argmax, dtype=float)
         n_x = len(problem.contexts)
-        if space.lo is not None and space.hi is not None:
-            h = vertex if vertex is not None else np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi)
-            h = h.reshape(n_x, -1)
-        else:
-            cells: npt.NDArray[Any] = np.clip(np.asarray(r.argmax, dtype=float), 0.0, 1.0) if vertex is None else vertex
-            cells = cells.reshape(n_x, problem.n_released_groups, -1)
+        if not problem.same_x:  # the table over every released context
+            point = np.clip(space.to_kernel(argmax), 0.0, 1.0) if vertex is None else space.to_kernel(vertex)
+        elif space.lo is not None and space.hi is not None:  # h[x, ã] = E[g | x, released ã]: the variables
+            point = (vertex if vertex is not None else np.clip(argmax, space.lo, space.hi)).reshape(n_x, -1)
+        else:  # or Σ_u K[x, ã, u] g(u, x)
+            cells = (np.clip(argmax, 0.0, 1.0) if vertex is None else vertex).reshape(
+                n_x, problem.n_released_groups, -1
+            )
             # a utility by group weighs one table differently per group: the table itself is the point
             g = problem.g[:, 0, :] if vertex is None else np.vectorize(Fraction, otypes=[object])(problem.g[:, 0, :])
-            h = cells if not problem.group_free else (cells * g[:, None, :]).sum(axis=2)
-        point = h[x] if kind == "local" else h
+            point = cells if not problem.group_free else (cells * g[:, None, :]).sum(axis=2)
+        if problem.same_x and kind == "local":
+            point = point[x]
     return WorstCase.searched(
         kind,
         replace(found, result=r),

@@ -14,6 +14,7 @@ program of at most 10 variables there, at t = ``exp_up`` (ε) ≥ e^ε (the wors
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
@@ -81,18 +82,18 @@ def lipschitz_proof(
     k, n_out, kind = len(record["inputs"]), len(record["outputs"]), record["kind"]
     if k < 2 or kind == "identity":
         return None
-    lo, hi, floor, lip = Fraction(lower), Fraction(gamma), _floor(tau), Fraction(lipschitz)
+    lo, hi, lip = Fraction(lower), Fraction(gamma), Fraction(lipschitz)
+    floor = None if tau is None or math.isnan(tau) or tau == 0 else Fraction(tau)  # (None, NaN or 0: no floor)
     d = [[Fraction(int(b != c)) if metric is None else Fraction(metric[b][c]) for c in range(k)] for b in range(k)]
     distances = {d[b][c] for b in range(k) for c in range(k) if b != c}
     out: Report = {}
     if kind == "randomized_response":
         t = exp_up(record["epsilon"])
         out["at"] = "inf" if math.isinf(t) else exact_number(Fraction(t))
-        p, q = (
-            (Fraction(1), Fraction(0))
-            if math.isinf(t)
-            else (Fraction(t) / (Fraction(t) + k - 1), 1 / (Fraction(t) + k - 1))
-        )
+        if math.isinf(t):  # (the identity's rows, the limit t → ∞)
+            p, q = Fraction(1), Fraction(0)
+        else:
+            p, q = Fraction(t) / (Fraction(t) + k - 1), 1 / (Fraction(t) + k - 1)
         rows = [[p if i == j else q for j in range(k)] for i in range(k)]
     else:
         rows = [[Fraction(v) for v in row] for row in record["matrix"]]
@@ -132,11 +133,6 @@ def _upward(value: Fraction) -> float | str:
     return fraction_up(value) if isinstance(written, float) and Fraction(written) < value else written
 
 
-def _floor(tau: float | None) -> Fraction | None:
-    """τ exactly; None for no floor (None, NaN or 0)."""
-    return None if tau is None or math.isnan(tau) or tau == 0 else Fraction(tau)
-
-
 def _point(record: Mapping[str, Any], a: int, b: int, h: Sequence[Fraction] | None) -> Report:
     """The witness's labels and vertex."""
     labels = record["inputs"]
@@ -166,16 +162,15 @@ def _full(
     n, m = len(rows), len(rows[0])
     a_ub: Rows = []
     b_ub: list[Fraction] = []
-    for b in range(n):
-        for c in range(b + 1, n):
-            if lip * d[b][c] >= gamma - lower:
-                continue  # implied by the box, not recorded
-            for o in range(m):
-                for sign in (1, -1):
-                    row = [Fraction(0)] * (n * m)
-                    row[b * m + o], row[c * m + o] = Fraction(sign), Fraction(-sign)
-                    a_ub.append(row)
-                    b_ub.append(lip * d[b][c])
+    for b, c in itertools.combinations(range(n), 2):
+        if lip * d[b][c] >= gamma - lower:
+            continue  # implied by the box, not recorded
+        for o in range(m):
+            for sign in (1, -1):
+                row = [Fraction(0)] * (n * m)
+                row[b * m + o], row[c * m + o] = Fraction(sign), Fraction(-sign)
+                a_ub.append(row)
+                b_ub.append(lip * d[b][c])
     if floor is not None:
         for b in range(n):
             row = [Fraction(0)] * (n * m)
@@ -183,12 +178,10 @@ def _full(
             a_ub.append(row)
             b_ub.append(-floor)
     pairs: Pairs = {}
-    for a in range(n):
-        for b in range(n):
-            if a != b:
-                p, q = [Fraction(0)] * (n * m), [Fraction(0)] * (n * m)
-                p[a * m : (a + 1) * m], q[b * m : (b + 1) * m] = rows[a], rows[b]
-                pairs[(a, b)] = (p, q)
+    for a, b in itertools.permutations(range(n), 2):
+        p, q = [Fraction(0)] * (n * m), [Fraction(0)] * (n * m)
+        p[a * m : (a + 1) * m], q[b * m : (b + 1) * m] = rows[a], rows[b]
+        pairs[(a, b)] = (p, q)
     return a_ub, b_ub, pairs
 
 

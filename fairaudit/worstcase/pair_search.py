@@ -353,17 +353,8 @@ def _ratios(p: FloatArray, q: FloatArray) -> FloatArray:
         return np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
 
 
-def pair_epsilon(matrix: FloatArray) -> FloatArray:
-    """max_o M[a, o] / M[b, o] for every ordered pair, shape (n, n) (c/0 = inf, 0/0 ignored), a tile at a time."""
-    n = matrix.shape[0]
-    out = np.empty((n, n))
-    for rows, cols in PairPass(matrix).tiles():
-        out[rows, cols] = _ratios(matrix[rows, None, :], matrix[None, cols, :]).max(axis=-1)
-    return out
-
-
 def pair_ratio(matrix: FloatArray, a: IntArray, b: IntArray) -> FloatArray:
-    """max_o M[a[i], o] / M[b[i], o] for the pairs given (as :func:`pair_epsilon`), a chunk at a time."""
+    """max_o M[a[i], o] / M[b[i], o] for the pairs given (c/0 = inf, 0/0 ignored), a chunk at a time."""
     out = np.empty(a.size)
     step = max(1, PAIR_BLOCK // max(1, matrix.shape[1]))
     for s in range(0, a.size, step):
@@ -421,10 +412,29 @@ def box_pairs(matrix: FloatArray, lower: float, upper: float, floor: float | Non
     return found
 
 
-def _evaluate(
+def pair_values(
     matrix: FloatArray, a: IntArray, b: IntArray, lo: float, hi: float, floor: float | None
 ) -> tuple[FloatArray, FloatArray | None]:
-    """Exact threshold values (and floor relaxations) of the pairs (a[i], b[i]), a chunk of pairs at a time."""
+    """Exact threshold values (and floor relaxations) of the pairs of rows (a[i], b[i]), a chunk of pairs at a time.
+
+    Parameters
+    ----------
+    matrix : numpy.ndarray, shape (n, m)
+        The rows (non-negative).
+    a, b : numpy.ndarray of int, shape (k,)
+        The pairs' rows: numerator ``matrix[a[i]]``, denominator ``matrix[b[i]]``.
+    lo, hi : float
+        The box lo ≤ h ≤ hi.
+    floor : float or None
+        The floor of the relaxation matrix[b[i]]·h ≥ floor; None: no relaxation.
+
+    Returns
+    -------
+    box : numpy.ndarray, shape (k,)
+        :func:`~fairaudit.base.threshold_rule.threshold_max_many`'s values (ratios).
+    relaxed : numpy.ndarray, shape (k,), or None
+        :func:`~fairaudit.base.threshold_rule.floor_max_many`'s values; None without ``floor``.
+    """
     box = np.empty(a.size)
     relaxed = None if floor is None else np.empty(a.size)
     step = max(1, PAIR_BLOCK // (8 * max(1, matrix.shape[1])))  # (the solutions make ~10 (pairs, m) temporaries)
@@ -458,7 +468,7 @@ def _all_pairs(matrix: FloatArray, lo: float, hi: float, floor: float | None) ->
     """Every ordered pair solved (a box of zero width, or fewer than two rows)."""
     n = matrix.shape[0]
     a, b = np.nonzero(~np.eye(n, dtype=bool))
-    box, rel = _evaluate(matrix, a, b, lo, hi, floor)
+    box, rel = pair_values(matrix, a, b, lo, hi, floor)
     return _finish(n, [(a, b, box, rel)], -math.inf, -math.inf)
 
 
@@ -476,15 +486,12 @@ def _ratio_pairs(matrix: FloatArray, hi: float) -> BoxPairs:
     parts: Parts = []
     fill = float(rowbest[rowbest < threshold].max(initial=-np.inf))  # the largest bound of a pair set aside
     for a in np.flatnonzero(rowbest >= threshold):
-        ratio = np.empty(n)
-        for s in range(0, n, step):
-            ratio[s : s + step] = _ratios(matrix[a], matrix[s : s + step]).max(axis=-1, initial=0.0)
-        ratio = np.maximum(ratio, 1.0) * (1 + 1e-12)
+        ratio = np.maximum(pair_ratio(matrix, np.full(n, a), np.arange(n)), 1.0) * (1 + 1e-12)
         ratio[a] = -np.inf
         bs = np.flatnonzero(ratio >= threshold)
         fill = max(fill, float(ratio[ratio < threshold].max(initial=-np.inf)))
         at = np.full(bs.size, a)
-        parts.append((at, bs, *_evaluate(matrix, at, bs, 0.0, hi, None)))
+        parts.append((at, bs, *pair_values(matrix, at, bs, 0.0, hi, None)))
     return _finish(n, parts, fill, -math.inf)
 
 
@@ -511,7 +518,7 @@ class _HockeyPairs:
 
     def _offer(self, a: IntArray, b: IntArray) -> None:
         """Solve the pairs exactly, keep them, and raise the best value (and λ) when one beats it."""
-        box, rel = _evaluate(self.matrix, a, b, self.lo, self.hi, self.floor)
+        box, rel = pair_values(self.matrix, a, b, self.lo, self.hi, self.floor)
         self.parts.append((a, b, box, rel))
         if rel is None:
             top = float(np.nanmax(box, initial=-np.inf))

@@ -305,30 +305,13 @@ def rr_box_point(rr: RandomizedResponseParameters, lo: float, hi: float, floor: 
         first = min(k - 2, int(math.floor(x)))
         frac = min(1.0, max(0.0, x - first))
         ratio = (floor + span * (p - q)) / floor
-        return RRWorst(
-            ratio=ratio,
-            value=math.log(ratio),
-            h_a=hi,
-            h_b=lo,
-            first=first,
-            h_first=hi,
-            h_next=lo + frac * span,
-            h_rest=lo,
-            prefix=False,
-        )
-    s = min(span, (need - c * (k - 1)) / p)  # a and every other value raised, a' partly
-    ratio = (lo + span * (p + (k - 2) * q) + q * s) / floor
-    return RRWorst(
-        ratio=ratio,
-        value=math.log(ratio),
-        h_a=hi,
-        h_b=lo + s,
-        first=k - 2,
-        h_first=hi,
-        h_next=hi,
-        h_rest=hi,
-        prefix=False,
-    )
+        h_b, h_next, h_rest = lo, lo + frac * span, lo
+    else:  # a and every other value raised, a' partly
+        s = min(span, (need - c * (k - 1)) / p)
+        ratio = (lo + span * (p + (k - 2) * q) + q * s) / floor
+        first, h_b, h_next, h_rest = k - 2, lo + s, hi, hi
+    return RRWorst(ratio=ratio, value=math.log(ratio), h_a=hi, h_b=h_b, first=first, h_first=hi, h_next=h_next,
+                   h_rest=h_rest, prefix=False)  # fmt: skip
 
 
 def rr_lipschitz_ratio(

@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -392,7 +392,7 @@ def _scan(source: Area | Path, cut: float | None) -> _Scan:
     scan = _Scan(names=[], ceiling_z=[], bboxes=[], centres=[], floor=[], fallback=[])
     for r in _rooms(source):
         z = r.points[:, 2]
-        cz = float(_ceilings([r], cut)[0])
+        cz = _ceiling(r, cut)
         keep = (r.categories != _CEILING) & (z <= cz)
         is_floor = keep & (r.categories == _FLOOR)
         centre, bbox = _room_summary(r.points[:, 0], r.points[:, 1], is_floor)
@@ -437,14 +437,10 @@ def _grids(source: Area | Path, res: float, resolution: float, cut: float | None
         keep = (r.categories != _CEILING) & (z <= scan.ceiling_z[i])
         flat = _cells(x, y, origin, shape, res)
         cells, top = _highest(flat, z, keep)
-        won = cells[~(top_height[cells] > z[top])]  # NaN or lower: this room's point wins (ties: the later room)
-        top_i = top[~(top_height[cells] > z[top])]
-        top_height[won], top_color[won], top_category[won], top_room[won] = (
-            z[top_i],
-            r.colors[top_i],
-            r.categories[top_i],
-            i,
-        )
+        wins = ~(top_height[cells] > z[top])  # NaN or lower: this room's point wins (ties: the later room)
+        won, top_i = cells[wins], top[wins]
+        top_height[won], top_color[won] = z[top_i], r.colors[top_i]
+        top_category[won], top_room[won] = r.categories[top_i], i
         cells, low = _highest(flat, z, keep & (z <= floor_z + clear))
         better = ~(low_height[cells] > z[low])
         low_height[cells[better]], low_room[cells[better]] = z[low[better]], i
@@ -481,22 +477,19 @@ def _lengths(
     return res, band, clear, radius, gap
 
 
-def _ceilings(rooms: Sequence[Room], cut: float | None) -> np.ndarray:
-    """Per room, the height above which its points are removed (+inf: none by height); see :func:`build_maps`."""
-    ceiling_z = np.full(len(rooms), np.inf)
-    for i, r in enumerate(rooms):
-        if len(r.points) == 0:
-            continue
-        if cut is not None:
-            ceiling_z[i] = cut
-            continue
-        rz = r.points[:, 2]
-        is_ceiling = r.categories == _CEILING
-        if is_ceiling.any():
-            ceiling_z[i] = float(np.median(rz[is_ceiling])) - CEILING_MARGIN
-        elif (r.categories == UNLABELLED).all():
-            ceiling_z[i] = float(np.quantile(rz, CEILING_QUANTILE)) - CEILING_MARGIN
-    return ceiling_z
+def _ceiling(r: Room, cut: float | None) -> float:
+    """The height above which the room's points are removed (+inf: none by height); see :func:`build_maps`."""
+    if len(r.points) == 0:
+        return math.inf
+    if cut is not None:
+        return cut
+    rz = r.points[:, 2]
+    is_ceiling = r.categories == _CEILING
+    if is_ceiling.any():
+        return float(np.median(rz[is_ceiling])) - CEILING_MARGIN
+    if (r.categories == UNLABELLED).all():
+        return float(np.quantile(rz, CEILING_QUANTILE)) - CEILING_MARGIN
+    return math.inf
 
 
 def _frame(

@@ -264,10 +264,6 @@ def _instance_key(stem: str) -> tuple:
     return (m.group("category"), int(m.group("k")), stem) if m else (stem, -1, stem)
 
 
-def _colors(rows: np.ndarray) -> np.ndarray:
-    return np.clip(np.rint(rows[:, 3:6]), 0, 255).astype(np.uint8)
-
-
 def read_room(room_dir: str | Path) -> Room:
     """Read one S3DIS room folder (the layout of Armeni et al. 2016, see the module docstring).
 
@@ -336,7 +332,7 @@ def read_room(room_dir: str | Path) -> Room:
     return Room(
         name=name,
         points=_frozen(np.ascontiguousarray(rows[:, :3], dtype=np.float64)),
-        colors=_frozen(_colors(rows)),
+        colors=_frozen(np.clip(np.rint(rows[:, 3:6]), 0, 255).astype(np.uint8)),
         categories=_frozen(categories),
         instance_ids=_frozen(instance_ids),
         instances=instances,
@@ -382,17 +378,6 @@ def read_area(area_dir: str | Path) -> Area:
     return Area(name=folder.name, rooms=tuple(iter_rooms(folder)))
 
 
-def _room_folders(folder: Path) -> list[Path]:
-    if not folder.is_dir():
-        raise InputError("area_dir", "folder not found", str(folder))
-    if (folder / "Annotations").is_dir() or (folder / f"{folder.name}.txt").is_file():
-        raise InputError("area_dir", "is a room folder (it holds Annotations or its .txt): give its area", str(folder))
-    rooms = sorted((d for d in folder.iterdir() if d.is_dir() and not d.name.startswith(".")), key=lambda d: d.name)
-    if not rooms:
-        raise InputError(str(folder), "area has no room folders")
-    return rooms
-
-
 def iter_rooms(area_dir: str | Path) -> Iterator[Room]:
     """The rooms of an S3DIS area folder, read one at a time, in name order (streaming :func:`read_area`).
 
@@ -423,5 +408,12 @@ def iter_rooms(area_dir: str | Path) -> Iterator[Room]:
     >>> list(sizes)[:3], sizes["office_1"]
     (['WC_1', 'conferenceRoom_1', 'hallway_1'], 1196)
     """
-    rooms = _room_folders(Path(area_dir))
+    folder = Path(area_dir)
+    if not folder.is_dir():
+        raise InputError("area_dir", "folder not found", str(folder))
+    if (folder / "Annotations").is_dir() or (folder / f"{folder.name}.txt").is_file():
+        raise InputError("area_dir", "is a room folder (it holds Annotations or its .txt): give its area", str(folder))
+    rooms = sorted((d for d in folder.iterdir() if d.is_dir() and not d.name.startswith(".")), key=lambda d: d.name)
+    if not rooms:
+        raise InputError(str(folder), "area has no room folders")
     return (read_room(d) for d in rooms)

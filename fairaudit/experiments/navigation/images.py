@@ -90,12 +90,6 @@ def _background(maps: Maps) -> np.ndarray:
     return np.rint(out).astype(np.uint8)
 
 
-def _scale(shape: tuple[int, int], scale: int | None) -> int:
-    if scale is None:
-        return max(1, math.ceil(800 / max(shape)))
-    return whole(scale, "scale", low=1, high=64)
-
-
 def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_MARGIN) -> Window:
     """The grid window around every cell of ``routes``, ``margin`` metres wider on each side, clipped to the grid.
 
@@ -267,7 +261,7 @@ def route_image(
         raise InputError("index", "must not be empty", index)
     r0, r1, c0, c1 = _window(maps, window, cells)
     rows = r1 - r0
-    k = _scale((rows, c1 - c0), scale)
+    k = max(1, math.ceil(800 / max(rows, c1 - c0))) if scale is None else whole(scale, "scale", low=1, high=64)
     Image, ImageDraw, ImageFont = _pillow()
     rgb = np.repeat(np.repeat(_background(maps)[r0:r1, c0:c1][::-1], k, axis=0), k, axis=1)
     img = Image.fromarray(np.ascontiguousarray(rgb))

@@ -190,15 +190,6 @@ class Maps:
         col = np.asarray(col)
         return (row >= 0) & (row < self.shape[0]) & (col >= 0) & (col < self.shape[1])
 
-    def room_at(self, x: float, y: float) -> str | None:
-        """The name of the room at (x, y) (:attr:`room_labels`), or None off the grid or where no point (:func:`build_maps`
-        has examples)."""
-        row, col = self.world_to_cell(x, y)
-        if not bool(self.contains(row, col)):
-            return None
-        label = int(self.room_labels[int(row), int(col)])
-        return self.rooms[label] if label >= 0 else None
-
 
 def check_maps(maps: object) -> None:
     """Raise an InputError naming ``maps`` and the type given unless ``maps`` is :class:`Maps`."""
@@ -279,8 +270,9 @@ def build_maps(
     >>> maps = build_maps(area, resolution=0.2)
     >>> maps.shape, maps.origin, round(maps.floor_z, 2)
     ((40, 60), (0.0, 0.0), 0.0)
-    >>> maps.room_at(2.0, 6.5), bool(maps.traversable[maps.world_to_cell(2.0, 6.5)]), maps.room_at(-1.0, 0.0)
-    ('office_1', True, None)
+    >>> cell = maps.world_to_cell(2.0, 6.5)
+    >>> maps.rooms[maps.room_labels[cell]], bool(maps.traversable[cell]), bool(maps.contains(*maps.world_to_cell(-1.0, 0.0)))
+    ('office_1', True, False)
     >>> [int(v) for v in maps.world_to_cell(2.5, 0.3)], maps.cell_to_world([1, 0], [12, 0])
     ([1, 12], (array([2.5, 0.1]), array([0.3, 0.1])))
     >>> sorted(maps.topology.neighbors("hallway_1"))

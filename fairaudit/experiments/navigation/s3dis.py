@@ -109,21 +109,6 @@ class Room:
     instances: tuple[str, ...]
     skipped_rows: int
 
-    @property
-    def kind(self) -> str:
-        """The room's kind: its name without the trailing ``_<k>`` (``"office"`` for ``office_1``)."""
-        return room_kind(self.name)
-
-    @property
-    def category_names(self) -> np.ndarray:
-        """Shape (n,): the category name of each point (from :attr:`categories`)."""
-        return np.asarray(CATEGORIES, dtype=object)[self.categories]
-
-    @property
-    def labelled(self) -> bool:
-        """Whether the points come from Annotations (categories known)."""
-        return len(self.instances) > 0
-
 
 @dataclass(frozen=True, eq=False)
 class Area:
@@ -297,7 +282,7 @@ def read_room(room_dir: str | Path) -> Room:
     ...     _ = Path(ann, "floor_1.txt").write_text("0.5 0.5 0.0 200 190 180\\n1.5 0.5 0.0 200 190 180\\n")
     ...     _ = Path(ann, "chair_1.txt").write_text("1.5 0.5 0.4 20 20 200\\n1.5 0.5 0.x 20 20 200\\n")
     ...     room = read_room(Path(tmp, "office_1"))
-    >>> room.instances, room.category_names.tolist(), room.skipped_rows
+    >>> room.instances, [CATEGORIES[c] for c in room.categories], room.skipped_rows
     (('chair_1', 'floor_1'), ['chair', 'floor', 'floor'], 1)
     >>> room.points[0].tolist(), room.colors[0].tolist()
     ([1.5, 0.5, 0.4], [20, 20, 200])
@@ -371,7 +356,7 @@ def read_area(area_dir: str | Path) -> Area:
     ...     area = read_area(write_office_floor(tmp, spacing=0.25))
     >>> area.name, area.room_names
     ('Area_1', ('WC_1', 'conferenceRoom_1', 'hallway_1', 'lobby_1', 'office_1', 'office_2', 'storage_1'))
-    >>> area.room("office_1").kind, area.skipped_rows
+    >>> room_kind(area.room("office_1").name), area.skipped_rows
     ('office', 0)
     """
     folder = Path(area_dir)

@@ -36,6 +36,7 @@ from fairaudit.experiments.navigation import (  # noqa: E402
     read_area,
     read_points,
     read_room,
+    room_kind,
     route_image,
     save_route_image,
     write_office_floor,
@@ -161,11 +162,13 @@ def _png(data: bytes) -> np.ndarray:
 
 def test_read_room_categories_instances_and_skipped_rows(toy):
     room = read_room(toy / "office_1")
-    assert room.name == "office_1" and room.kind == "office" and room.labelled
+    assert room.name == "office_1" and room_kind(room.name) == "office" and room.instances
     assert room.instances == ("ceiling_1", "floor_1", "table_1", "wall_1")
     # floor: 8 + 3 good rows, one row with 5 fields; table: one good row, one "0.7x"
     assert room.skipped_rows == 2
-    counts = {name: int(np.sum(room.category_names == name)) for name in ("ceiling", "floor", "table", "wall")}
+    counts = {
+        name: int(np.sum(room.categories == CATEGORIES.index(name))) for name in ("ceiling", "floor", "table", "wall")
+    }
     assert counts == {"ceiling": 12, "floor": 11, "table": 1, "wall": 4}
     assert len(room.points) == 28 and room.points.dtype == np.float64 and room.colors.dtype == np.uint8
     table = room.categories == CATEGORIES.index("table")
@@ -178,7 +181,7 @@ def test_read_room_categories_instances_and_skipped_rows(toy):
 
 def test_read_room_without_annotations_is_unlabelled(toy):
     room = read_room(toy / "storage_1")
-    assert room.instances == () and not room.labelled and room.skipped_rows == 0
+    assert room.instances == () and room.skipped_rows == 0
     assert (room.categories == UNLABELLED).all() and len(room.points) == 13
     assert (room.instance_ids == -1).all()
 
@@ -207,7 +210,7 @@ def test_colours_are_rounded_and_clipped(tmp_path):
     _write_room(tmp_path, "office_3", {"stairs_1": "4.0 5.0 6.0 300 -2 7.6\n"})
     room = read_room(tmp_path / "office_3")
     assert room.colors.tolist() == [[255, 0, 8]]
-    assert room.category_names.tolist() == ["clutter"]  # categories outside the 13 count as clutter
+    assert room.categories.tolist() == [CATEGORIES.index("clutter")]  # categories outside the 13 count as clutter
 
 
 def test_read_errors_name_the_path(tmp_path):
@@ -369,7 +372,7 @@ def test_world_cell_round_trip(floor):
     r2, c2 = m.world_to_cell(x, y)
     np.testing.assert_array_equal(r2, rows)
     np.testing.assert_array_equal(c2, cols)
-    assert m.room_at(2.0, 6.5) == "office_1" and m.room_at(10.0, 6.5) == "office_2" and m.room_at(-5, 0) is None
+    assert [m.rooms[m.room_labels[m.world_to_cell(x, 6.5)]] for x in (2.0, 10.0)] == ["office_1", "office_2"]
 
 
 # -- routes -----------------------------------------------------------------------------------------------

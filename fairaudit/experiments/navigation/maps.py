@@ -286,7 +286,13 @@ def build_maps(
     """
     if not isinstance(area, (Area, str, os.PathLike)):
         raise InputError("area", "must be an Area from read_area or an area folder", type(area).__name__)
-    res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
+    res = _metres("resolution", resolution)
+    band = _metres("floor_band", floor_band)
+    clear = math.inf if clearance is None else _metres("clearance", clearance)
+    if clear <= band:
+        raise InputError("clearance", "must be larger than floor_band", clearance)
+    radius = _metres("robot_radius", robot_radius, allow_zero=True)
+    gap = _metres("door_gap", door_gap, allow_zero=True)
     cut = None if ceiling is None else real(ceiling, "ceiling", what="a finite height in metres")
     nx = require_networkx()
     g = _grids(area if isinstance(area, Area) else Path(area), res, resolution, cut, band, clear)
@@ -453,20 +459,6 @@ def _grids(source: Area | Path, res: float, resolution: float, cut: float | None
         centres=[c if c is not None else (math.nan, math.nan) for c in centres],
         bboxes=scan.bboxes,
     )
-
-
-def _lengths(
-    resolution: float, floor_band: float, clearance: float | None, robot_radius: float, door_gap: float
-) -> tuple[float, float, float, float, float]:
-    """The lengths of :func:`build_maps`, checked: resolution, floor band, clearance (+inf for None), radius, gap."""
-    res = _metres("resolution", resolution)
-    band = _metres("floor_band", floor_band)
-    clear = math.inf if clearance is None else _metres("clearance", clearance)
-    if clear <= band:
-        raise InputError("clearance", "must be larger than floor_band", clearance)
-    radius = _metres("robot_radius", robot_radius, allow_zero=True)
-    gap = _metres("door_gap", door_gap, allow_zero=True)
-    return res, band, clear, radius, gap
 
 
 def _ceiling(r: Room, cut: float | None) -> float:

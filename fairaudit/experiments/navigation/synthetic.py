@@ -409,29 +409,25 @@ def write_office_floor(
     for index, spec in enumerate(_layout() if layout == LAYOUTS[0] else _two_corridor_layout()):
         rng = np.random.default_rng([int(seed), index])
         tables: list[pd.DataFrame] = []
-        names: list[str] = []
         counts: dict[str, int] = {}
-        for category, pts in _room_instances(spec, s):
-            if len(pts) == 0:
-                continue
-            counts[category] = counts.get(category, 0) + 1
-            names.append(f"{category}_{counts[category]}")
-            tables.append(_table(pts, category, rng, s))
-        _write_room(out, spec.name, names, tables)
+        with staged_room(out, spec.name) as tmp:
+            for category, pts in _room_instances(spec, s):
+                if len(pts):
+                    counts[category] = counts.get(category, 0) + 1
+                    tables.append(_table(pts, category, rng, s))
+                    _write_table(tables[-1], tmp / "Annotations" / f"{category}_{counts[category]}.txt")
+            _write_table(pd.concat(tables, ignore_index=True), tmp / f"{spec.name}.txt")
+            _replace_room(tmp, out / spec.name)
     return out
 
 
-def _write_room(area_dir: Path, name: str, names: list[str], tables: list[pd.DataFrame]) -> None:
-    with staged_room(area_dir, name) as tmp:
-        for inst, frame in zip(names, tables):
-            _write_table(frame, tmp / "Annotations" / f"{inst}.txt")
-        _write_table(pd.concat(tables, ignore_index=True), tmp / f"{name}.txt")
-        target = area_dir / name
-        old = None
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".old", dir=area_dir))
-            os.rmdir(old)
-            os.replace(target, old)
-        os.replace(tmp, target)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+def _replace_room(tmp: Path, target: Path) -> None:
+    """Rename the staged room ``tmp`` to ``target``, moving an existing room aside first and removing it after."""
+    old = None
+    if target.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+        os.rmdir(old)
+        os.replace(target, old)
+    os.replace(tmp, target)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)

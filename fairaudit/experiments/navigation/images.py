@@ -78,16 +78,9 @@ def _background(maps: Maps) -> np.ndarray:
     :data:`START_RGB` or pure blue :data:`GOAL_RGB`.
     """
     c = maps.top_color.astype(float)
-    out = np.full(c.shape, 28.0)
-    has = ~np.isnan(maps.top_height)
-    light = 0.35 * c + 0.65 * 255.0
-    margin = 0.35 * c + 0.65 * 200.0
-    dark = 0.45 * c
-    out[has] = dark[has]
-    m = maps.free & ~maps.traversable
-    out[m] = margin[m]
-    out[maps.traversable] = light[maps.traversable]
-    return np.rint(out).astype(np.uint8)
+    kinds = (maps.traversable, maps.free & ~maps.traversable, ~np.isnan(maps.top_height))  # the first that holds
+    shades = (0.35 * c + 0.65 * 255.0, 0.35 * c + 0.65 * 200.0, 0.45 * c)  # light, margin, dark
+    return np.rint(np.select([k[..., None] for k in kinds], shades, 28.0)).astype(np.uint8)
 
 
 def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_MARGIN) -> Window:

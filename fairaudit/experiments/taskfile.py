@@ -499,11 +499,8 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
 def _shown_text(a: AttributeSection) -> dict[Hashable, tuple[str, ...]] | None:
     if a.text is None:
         return None
-    out: dict[Hashable, tuple[str, ...]] = {}
-    for v in a.values:
-        shown = a.text[format_label(v)]
-        out[v] = (shown,) if isinstance(shown, str) else tuple(shown)
-    return out
+    texts = {key: (shown,) if isinstance(shown, str) else tuple(shown) for key, shown in a.text.items()}
+    return {v: texts[format_label(v)] for v in a.values}
 
 
 def _population(f: TaskFile, attributes: tuple[Attribute, ...]) -> tuple[Literal["listed", "distinct", "all"], tuple]:

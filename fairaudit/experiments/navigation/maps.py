@@ -172,11 +172,7 @@ class Maps:
             ``floor((y - oy) / res)`` and ``floor((x - ox) / res)``; may lie
             outside the grid (check with :meth:`contains`). :func:`build_maps` has examples.
         """
-        x = np.asarray(x, dtype=float)
-        y = np.asarray(y, dtype=float)
-        row = np.floor((y - self.origin[1]) / self.resolution + 1e-9).astype(np.int64)
-        col = np.floor((x - self.origin[0]) / self.resolution + 1e-9).astype(np.int64)
-        return row, col
+        return _row_col(x, y, self.origin, self.resolution)
 
     def cell_to_world(self, row: npt.ArrayLike, col: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """The (x, y) of the centre of cell (row, col), metres (:func:`build_maps` has examples)."""
@@ -433,7 +429,8 @@ def _grids(source: Area | Path, res: float, resolution: float, cut: float | None
             raise InputError(str(source), "the area's rooms changed while it was read", r.name)
         x, y, z = r.points[:, 0], r.points[:, 1], r.points[:, 2]
         keep = (r.categories != _CEILING) & (z <= scan.ceiling_z[i])
-        flat = _cells(x, y, origin, shape, res)
+        row, col = _row_col(x, y, origin, res)
+        flat = row * shape[1] + col
         cells, top = _highest(flat, z, keep)
         wins = ~(top_height[cells] > z[top])  # NaN or lower: this room's point wins (ties: the later room)
         won, top_i = cells[wins], top[wins]
@@ -481,7 +478,7 @@ def _frame(
 ) -> tuple[tuple[float, float], tuple[int, int]]:
     """The grid of points spanning that bounding box: its origin and its shape (rows, cols).
 
-    The last row and column are those of (x_max, y_max) under :func:`_cells` (the cell index is monotone in
+    The last row and column are those of (x_max, y_max) under :func:`_row_col` (the cell index is monotone in
     the coordinate, so the bounding box alone gives the grid of all the points).
     """
     ox = math.floor(x_min / res + 1e-9) * res
@@ -494,11 +491,13 @@ def _frame(
     return (float(ox), float(oy)), shape
 
 
-def _cells(x: np.ndarray, y: np.ndarray, origin: tuple[float, float], shape: tuple[int, int], res: float) -> np.ndarray:
-    """Each point's flat cell index (row-major) on the grid of ``origin`` and ``shape``."""
-    ci = np.floor((x - origin[0]) / res + 1e-9).astype(np.int64)
-    ri = np.floor((y - origin[1]) / res + 1e-9).astype(np.int64)
-    return ri * shape[1] + ci
+def _row_col(
+    x: npt.ArrayLike, y: npt.ArrayLike, origin: tuple[float, float], res: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) of the cell holding each point (x, y) on the grid of ``origin`` and ``res`` (may lie off it)."""
+    row = np.floor((np.asarray(y, dtype=float) - origin[1]) / res + 1e-9).astype(np.int64)
+    col = np.floor((np.asarray(x, dtype=float) - origin[0]) / res + 1e-9).astype(np.int64)
+    return row, col
 
 
 def _room_summary(

@@ -151,7 +151,7 @@ class Maps:
     traversable: np.ndarray
     room_labels: np.ndarray
     rooms: tuple[str, ...]
-    topology: networkx.Graph | None
+    topology: networkx.Graph
     floor_z: float
     ceiling_z: np.ndarray
     floor_band: float

@@ -186,7 +186,7 @@ def _endpoint(maps: Maps, where: Place, field: str, max_snap: float) -> tuple[in
     if isinstance(where, str):
         if where not in maps.rooms:
             raise InputError(field, f"no such room (rooms: {', '.join(maps.rooms)})", where)
-        x, y = maps.topology.nodes[where]["centre"] if maps.topology is not None else (math.nan, math.nan)
+        x, y = maps.topology.nodes[where]["centre"]
         if not (math.isfinite(x) and math.isfinite(y)):
             raise InputError(field, "room has no points to take a centre from", where)
         mine = trav & (maps.room_labels == maps.rooms.index(where))

@@ -236,21 +236,6 @@ def _detect_doors(maps: Maps) -> tuple[Door, ...]:
     return tuple(sorted(doors, key=lambda d: (maps.rooms.index(d.rooms[0]), maps.rooms.index(d.rooms[1]), d.cell)))
 
 
-def _centres(maps: Maps) -> np.ndarray:
-    """(n_rooms, 2) room centres, metres: the topology's, else the mean of the room's cells (NaN: no cell)."""
-    out = np.full((len(maps.rooms), 2), np.nan)
-    labels = maps.room_labels
-    for i, name in enumerate(maps.rooms):
-        if maps.topology is not None:
-            out[i] = maps.topology.nodes[name]["centre"]
-        if not np.isfinite(out[i]).all():
-            r, c = np.nonzero(labels == i)
-            if len(r):
-                x, y = maps.cell_to_world(r, c)
-                out[i] = (float(x.mean()), float(y.mean()))
-    return out
-
-
 def passable_graph(maps: Maps) -> networkx.Graph:
     """The rooms joined by passable doors (:func:`find_doors`), for room-level path search.
 
@@ -263,7 +248,7 @@ def passable_graph(maps: Maps) -> networkx.Graph:
     networkx.Graph
         Frozen. One node per room of :attr:`Maps.rooms` (rooms without any
         door are isolated), with ``centre`` (x, y, metres: the topology's
-        centre, else the mean of the room's cells). An edge per pair of rooms
+        centre; NaN for a room without points, which has no cell). An edge per pair of rooms
         with at least one door, with ``doors`` (tuple of :class:`Door`) and
         ``weight``: the shortest centre -> door point -> centre leg over its
         doors, Euclidean, metres. Edges of the topology through which the
@@ -291,7 +276,7 @@ def passable_graph(maps: Maps) -> networkx.Graph:
     if graph is not None:
         return graph
     nx = require_networkx()
-    centres = _centres(maps)
+    centres = np.array([maps.topology.nodes[name]["centre"] for name in maps.rooms], dtype=float).reshape(-1, 2)
     graph = nx.Graph()
     for i, name in enumerate(maps.rooms):
         graph.add_node(name, centre=(float(centres[i, 0]), float(centres[i, 1])))

@@ -66,7 +66,7 @@ CATEGORIES = (
 #: Code of ``"unlabelled"`` in :data:`CATEGORIES`.
 UNLABELLED = CATEGORIES.index("unlabelled")
 
-_CODE = {name: i for i, name in enumerate(CATEGORIES)}
+_CODE = {name: i for i, name in enumerate(CATEGORIES) if i != UNLABELLED}  # an Annotations file is never unlabelled
 _INSTANCE = re.compile(r"^(?P<category>.+?)_(?P<k>\d+)$")
 
 
@@ -294,15 +294,11 @@ def read_room(room_dir: str | Path) -> Room:
     annotations = folder / "Annotations"
     files = sorted(annotations.glob("*.txt"), key=lambda f: _instance_key(f.stem)) if annotations.is_dir() else []
     if files:
-        blocks, codes, skipped = [], [], 0
-        for f in files:
-            rows, bad = read_points(f)
-            skipped += bad
-            code = _CODE.get(room_kind(f.stem), _CODE["clutter"])
-            codes.append(_CODE["clutter"] if code == UNLABELLED else code)
-            blocks.append(rows)
-        sizes = [len(b) for b in blocks]
-        rows = np.concatenate(blocks)
+        read = [read_points(f) for f in files]
+        skipped = sum(bad for _, bad in read)
+        codes = [_CODE.get(room_kind(f.stem), _CODE["clutter"]) for f in files]
+        sizes = [len(block) for block, _ in read]
+        rows = np.concatenate([block for block, _ in read])
         categories = np.repeat(np.array(codes, dtype=np.uint8), sizes)
         instance_ids = np.repeat(np.arange(len(files), dtype=np.int32), sizes)
         instances = tuple(f.stem for f in files)

@@ -2,7 +2,7 @@
 
 Each route is shown to the vision-language model as "the top-down floorplan with the route to the office
 highlighted in red, and the index printed in the upper-left corner of the image: 1 for HR1, 2 for HR2" (the
-paper's Methods): :func:`route_image`, :func:`save_route_image`. The start and the goal are marked with discs
+paper's Methods): :func:`route_image`. The start and the goal are marked with discs
 (:data:`START_RGB`, :data:`GOAL_RGB`) and a scale bar gives the metres in the lower-left corner. An image shows
 the whole grid or a window of it: :func:`route_window` frames a scene's routes, so that the images of a building
 show the rooms the routes cross, all of them in the same frame.
@@ -13,7 +13,6 @@ from __future__ import annotations
 import io
 import math
 from collections.abc import Sequence
-from pathlib import Path
 from types import ModuleType
 from typing import Any, Protocol
 
@@ -38,7 +37,7 @@ class _Route(Protocol):
     def goal(self) -> Any: ...
 
 
-__all__ = ["GOAL_RGB", "ROUTE_MARGIN", "ROUTE_RGB", "START_RGB", "route_image", "route_window", "save_route_image"]
+__all__ = ["GOAL_RGB", "ROUTE_MARGIN", "ROUTE_RGB", "START_RGB", "route_image", "route_window"]
 
 #: Colour of the route in :func:`route_image` (pure red; never used by the background).
 ROUTE_RGB = (255, 0, 0)
@@ -319,50 +318,3 @@ def _scale_bar(draw: Any, ImageFont: ModuleType, size: tuple[int, int], resoluti
     draw.text((pad - left, y0 + pad - top), text, fill=(0, 0, 0), font=font)
     bar_y = h - pad - thick
     draw.rectangle((pad, bar_y, pad + length - 1, bar_y + thick - 1), fill=(0, 0, 0))
-
-
-def save_route_image(
-    path: str | Path,
-    maps: Maps,
-    route: _Route,
-    index: int | str,
-    *,
-    scale: int | None = None,
-    window: Window | None = None,
-) -> None:
-    """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit.base.files.write_atomic`).
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        Ends in ``.png``; its folder must exist.
-    maps, route, index, scale, window
-        As :func:`route_image`.
-
-    Returns
-    -------
-    None
-
-    Raises
-    ------
-    InputError
-        Naming ``path`` (not ``.png``, folder missing or not writable), or as
-        :func:`route_image`.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> from pathlib import Path
-    >>> from fairaudit.experiments.navigation import build_maps, plan_route, read_area, write_office_floor
-    >>> with tempfile.TemporaryDirectory() as tmp:
-    ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.25)), resolution=0.25)
-    ...     route = plan_route(maps, "lobby_1", "office_1")
-    ...     save_route_image(Path(tmp, "hr1.png"), maps, route, 1, scale=2)
-    ...     Path(tmp, "hr1.png").read_bytes() == route_image(maps, route, 1, scale=2)
-    True
-    """
-    from fairaudit import write_atomic
-
-    if Path(path).suffix.lower() != ".png":
-        raise InputError("path", "must end in .png", str(path))
-    write_atomic(path, route_image(maps, route, index, scale=scale, window=window), field="path")

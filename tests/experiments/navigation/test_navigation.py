@@ -38,7 +38,6 @@ from fairaudit.experiments.navigation import (  # noqa: E402
     read_room,
     room_kind,
     route_image,
-    save_route_image,
     write_office_floor,
 )
 
@@ -612,14 +611,6 @@ def test_route_image_default_scale_and_errors(floor, tmp_path):
         route_image(m, route, "")
     with pytest.raises(InputError, match="^route: must be a Route"):
         route_image(m, "office_1", 1)
-    path = tmp_path / "hr1.png"
-    save_route_image(path, m, route, 1)
-    assert path.read_bytes() == route_image(m, route, 1)
-    with pytest.raises(InputError, match=r"^path: must end in .png"):
-        save_route_image(tmp_path / "hr1.jpg", m, route, 1)
-    with pytest.raises(InputError, match="^path: folder does not exist") as e:
-        save_route_image(tmp_path / "no" / "hr1.png", m, route, 1)
-    assert str(tmp_path / "no") in str(e.value)
 
 
 # -- the scene --------------------------------------------------------------------------------------------

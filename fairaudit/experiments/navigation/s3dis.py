@@ -126,27 +126,9 @@ class Area:
     rooms: tuple[Room, ...]
 
     @property
-    def skipped_rows(self) -> int:
-        """Rows dropped over every room."""
-        return sum(r.skipped_rows for r in self.rooms)
-
-    @property
     def room_names(self) -> tuple[str, ...]:
         """The rooms' names, sorted."""
         return tuple(r.name for r in self.rooms)
-
-    def room(self, name: str) -> Room:
-        """The room called ``name``.
-
-        Raises
-        ------
-        InputError
-            Naming ``room`` when the area has no such room.
-        """
-        for r in self.rooms:
-            if r.name == name:
-                return r
-        raise InputError("room", f"no such room in {self.name}", name)
 
 
 def room_kind(name: str) -> str:
@@ -352,7 +334,7 @@ def read_area(area_dir: str | Path) -> Area:
     ...     area = read_area(write_office_floor(tmp, spacing=0.25))
     >>> area.name, area.room_names
     ('Area_1', ('WC_1', 'conferenceRoom_1', 'hallway_1', 'lobby_1', 'office_1', 'office_2', 'storage_1'))
-    >>> room_kind(area.room("office_1").name), area.skipped_rows
+    >>> room_kind(area.rooms[4].name), sum(room.skipped_rows for room in area.rooms)
     ('office', 0)
     """
     folder = Path(area_dir)

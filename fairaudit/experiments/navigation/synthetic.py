@@ -267,15 +267,9 @@ def _vertical(axis: str, at: float, a0: float, a1: float, z0: float, z1: float, 
 
 
 def _box(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, s: float) -> np.ndarray:
-    return np.concatenate(
-        [
-            _horizontal(x0, x1, y0, y1, z1, s),
-            _vertical("y", y0, x0, x1, z0, z1, s),
-            _vertical("y", y1, x0, x1, z0, z1, s),
-            _vertical("x", x0, y0, y1, z0, z1, s),
-            _vertical("x", x1, y0, y1, z0, z1, s),
-        ]
-    )
+    sides = [_vertical("y", y, x0, x1, z0, z1, s) for y in (y0, y1)]  # south and north, then west and east
+    sides += [_vertical("x", x, y0, y1, z0, z1, s) for x in (x0, x1)]
+    return np.concatenate([_horizontal(x0, x1, y0, y1, z1, s), *sides])
 
 
 def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
@@ -299,15 +293,9 @@ def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
             f = FRAME if framed else 0.0
             pieces.append(_vertical(axis, at, a0 - f, a1 + f, DOOR_TOP + 0.1, top, s))  # lintel
             if framed:
-                doors.append(
-                    np.concatenate(
-                        [
-                            _vertical(axis, at, a0 - f, a0, 0.0, DOOR_TOP, s),  # jambs
-                            _vertical(axis, at, a1, a1 + f, 0.0, DOOR_TOP, s),
-                            _vertical(axis, at, a0 - f, a1 + f, DOOR_TOP, DOOR_TOP + 0.1, s),  # head
-                        ]
-                    )
-                )
+                jambs = [_vertical(axis, at, u, v, 0.0, DOOR_TOP, s) for u, v in ((a0 - f, a0), (a1, a1 + f))]
+                head = _vertical(axis, at, a0 - f, a1 + f, DOOR_TOP, DOOR_TOP + 0.1, s)
+                doors.append(np.concatenate([*jambs, head]))
         for _, a0, a1, z0, z1 in windows:
             pieces += [_vertical(axis, at, a0, a1, 0.0, z0, s), _vertical(axis, at, a0, a1, z1, top, s)]
         inst.append(("wall", np.concatenate(pieces)))

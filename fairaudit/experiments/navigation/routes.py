@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 import tempfile
-import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,7 +37,7 @@ from fairaudit import InputError, real, whole
 from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, check_maps, require_networkx
 from .synthetic import write_office_floor
-from .topology import door_paths, grid_edges
+from .topology import door_paths, grid_edges, per_maps
 
 if TYPE_CHECKING:
     import networkx
@@ -60,8 +59,6 @@ __all__ = [
 
 #: Default largest distance (metres) from a start or goal to the traversable cell it is moved to.
 MAX_SNAP = 1.0
-
-_GRAPHS: weakref.WeakKeyDictionary[Maps, networkx.Graph] = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -168,15 +165,13 @@ class DeliveryScene:
 # -- A* -------------------------------------------------------------------------------------------------
 
 
+@per_maps
 def _grid_graph(maps: Maps) -> networkx.Graph:
-    graph = _GRAPHS.get(maps)
-    if graph is None:
-        nx = require_networkx()
-        u, v, w = grid_edges(maps.traversable, maps.resolution)
-        graph = nx.Graph()
-        graph.add_nodes_from(np.flatnonzero(maps.traversable.ravel()).tolist())
-        graph.add_weighted_edges_from(zip(u.tolist(), v.tolist(), w.tolist()))
-        _GRAPHS[maps] = graph
+    nx = require_networkx()
+    u, v, w = grid_edges(maps.traversable, maps.resolution)
+    graph = nx.Graph()
+    graph.add_nodes_from(np.flatnonzero(maps.traversable.ravel()).tolist())
+    graph.add_weighted_edges_from(zip(u.tolist(), v.tolist(), w.tolist()))
     return graph
 
 

@@ -14,7 +14,7 @@ import io
 import math
 from collections.abc import Sequence
 from types import ModuleType
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,19 +22,8 @@ from fairaudit import InputError, optional_modules, real, whole
 
 from .maps import Maps, check_maps
 
-
-class _Route(Protocol):
-    """What :func:`route_image` reads of a :class:`~fairaudit.experiments.navigation.routes.Route`.
-
-    Its cells, shape (k, 2), int: (row, col) from start to goal; and its goal, for messages. (A protocol, so that
-    this module does not import :mod:`~fairaudit.experiments.navigation.routes`, which imports it.)
-    """
-
-    @property
-    def cells(self) -> np.ndarray: ...
-
-    @property
-    def goal(self) -> Any: ...
+if TYPE_CHECKING:
+    from .routes import Route  # routes imports this module: for the annotations only
 
 
 __all__ = ["GOAL_RGB", "ROUTE_MARGIN", "ROUTE_RGB", "START_RGB", "route_image", "route_window"]
@@ -82,7 +71,7 @@ def _background(maps: Maps) -> np.ndarray:
     return np.rint(np.select([k[..., None] for k in kinds], shades, 28.0)).astype(np.uint8)
 
 
-def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_MARGIN) -> Window:
+def route_window(maps: Maps, routes: Sequence[Route], *, margin: float = ROUTE_MARGIN) -> Window:
     """The grid window around every cell of ``routes``, ``margin`` metres wider on each side, clipped to the grid.
 
     The common frame of a scene's route images (:func:`route_image`'s ``window``): the routes and what lies
@@ -130,7 +119,7 @@ def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_
     return (max(0, int(r0) - pad), min(rows, int(r1) + pad + 1), max(0, int(c0) - pad), min(cols, int(c1) + pad + 1))
 
 
-def _route_cells(maps: Maps, route: _Route, field: str) -> np.ndarray:
+def _route_cells(maps: Maps, route: Route, field: str) -> np.ndarray:
     """The route's cells (k, 2), checked: a Route planned on ``maps``."""
     cells = getattr(route, "cells", None)
     if not (isinstance(cells, np.ndarray) and cells.ndim == 2 and cells.shape[1] == 2 and hasattr(route, "goal")):
@@ -160,7 +149,7 @@ def _window(maps: Maps, window: Window | None, cells: np.ndarray) -> Window:
 
 
 def route_image(
-    maps: Maps, route: _Route, index: int | str, *, scale: int | None = None, window: Window | None = None
+    maps: Maps, route: Route, index: int | str, *, scale: int | None = None, window: Window | None = None
 ) -> bytes:
     """PNG of the top view with ``route`` in red, start and goal markers, ``index`` and a scale bar.
 

@@ -23,6 +23,7 @@ corner of the image: 1 for HR1, 2 for HR2" (:func:`route_image`).
 
 from __future__ import annotations
 
+import itertools
 import math
 import tempfile
 from collections.abc import Sequence
@@ -300,9 +301,7 @@ def _route(
     steps = np.abs(np.diff(cells, axis=0)).sum(axis=1)
     length = float(maps.resolution * (np.sum(steps == 1) + math.sqrt(2.0) * np.sum(steps == 2)))
     labels = maps.room_labels[cells[:, 0], cells[:, 1]]
-    labels = labels[labels >= 0]
-    keep = np.r_[True, labels[1:] != labels[:-1]] if len(labels) else np.zeros(0, bool)
-    rooms = tuple(maps.rooms[int(i)] for i in labels[keep])
+    rooms = tuple(maps.rooms[int(i)] for i, _ in itertools.groupby(labels[labels >= 0]))  # repeats collapsed
     for a in (cells, points):
         a.setflags(write=False)
     return Route(

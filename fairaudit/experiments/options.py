@@ -199,10 +199,9 @@ class ModelSource:
         _convert(self, "top_p", real, low=0.0, low_open=True, high=1.0, what="in (0, 1]")
         _convert(self, "max_tokens", whole, low=1)
         choice(self.constrain, "constrain", CONSTRAINTS)
-        given = [n for n in SAMPLING_FIELDS if getattr(self, n) not in (None, "none")]
-        if not given:
+        name = next((n for n in SAMPLING_FIELDS if getattr(self, n) not in (None, "none")), None)
+        if name is None:
             return
-        name = given[0]
         if not (self.endpoint or self.local_model):
             raise InputError(name, "sets how a server samples: it needs `endpoint` (with `model`) or `local_model`")
         if self.exact:

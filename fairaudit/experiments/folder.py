@@ -177,38 +177,34 @@ def _changes(before: dict, now: dict, extend: bool) -> list[str]:
     the log does not record is not compared; ``samples`` may grow with ``extend``."""
     parts: list[str] = []
 
-    def compare(name: str, then: Any, new: Any, shown: Callable[[Any], str] = _shown) -> None:
-        if then != new:
-            parts.append(f"`{name}` {shown(then)}, not {shown(new)}")
+    def compare(name: str, then: dict, new: dict, shown: Callable[[Any], str] = _shown) -> None:
+        """The setting ``name`` of ``new`` against ``then``'s, when ``then`` records it."""
+        if name in then and then[name] != new.get(name):
+            parts.append(f"`{name}` {shown(then[name])}, not {shown(new.get(name))}")
 
-    if "seed" in before:
-        compare("seed", before["seed"], now["seed"])
+    compare("seed", before, now)
     then, new = before.get("samples"), now["samples"]
     if then is not None and new != then and not (extend and new > then):
         hint = " (to add samples, give `extend`)" if new > then else ""
         parts.append(f"`samples` {then}, not {new}{hint}")
     for name in ("design", "positions"):
-        if name in before:
-            compare(name, before[name], now[name])
+        compare(name, before, now)
     filt = _filter_change(before, now)
     if filt is not None:
         parts.append(filt)
-    if "context_epsilon" in before:
-        compare("context_epsilon", before["context_epsilon"], now["context_epsilon"])
+    compare("context_epsilon", before, now)
     if "images" in before and before["images"] != now["images"]:
         parts.append(f"route images {before['images']} per query, not {now['images']} (`images`)")
     scene_then, scene_now = before.get("scene"), now.get("scene")
     if isinstance(scene_then, dict) and scene_now is not None:
+        goals = lambda v: repr(",".join(map(str, v or ())))  # noqa: E731 (as given: comma-separated)
         for name in ("start", "goals", "tolerance"):
-            if name in scene_then:
-                goals = lambda v: repr(",".join(map(str, v or ())))  # noqa: E731 (as given: comma-separated)
-                compare(name, scene_then[name], scene_now[name], goals if name == "goals" else _shown)
+            compare(name, scene_then, scene_now, goals if name == "goals" else _shown)
     prompt_then = before.get("prompt")
     if isinstance(prompt_then, dict) and prompt_then.get("sent") != now["prompt"]["sent"]:
         parts.append(f"the {prompt_then.get('sent')} prompt, not the {now['prompt']['sent']}")
     sampling_then, sampling_now = before.get("sampling"), now.get("sampling") or {}
     if isinstance(sampling_then, dict):
         for name in (*SAMPLING_FIELDS, "scoring"):  # the scoring says how the twins read a reply
-            if name in sampling_then:
-                compare(name, sampling_then[name], sampling_now.get(name))
+            compare(name, sampling_then, sampling_now)
     return parts

@@ -167,10 +167,9 @@ class ModelSource:
             raise InputError("model", "is needed with `endpoint` (the model name the endpoint serves)")
         if self.model and not self.endpoint:
             raise InputError("model", "goes with `endpoint`", self.model)
-        if not isinstance(self.exact, bool):
-            raise InputError("exact", "must be True or False", self.exact)
-        if not isinstance(self.sampled_twin, bool):
-            raise InputError("sampled_twin", "must be True or False", self.sampled_twin)
+        for flag in ("exact", "sampled_twin"):
+            if not isinstance(getattr(self, flag), bool):
+                raise InputError(flag, "must be True or False", getattr(self, flag))
         if self.sampled_twin and not self.endpoint:
             raise InputError("sampled_twin", "needs `endpoint` (with `model`): it samples a server's first token")
         if self.sampled_twin and self.exact:
@@ -200,10 +199,9 @@ class ModelSource:
         _convert(self, "top_p", real, low=0.0, low_open=True, high=1.0, what="in (0, 1]")
         _convert(self, "max_tokens", whole, low=1)
         choice(self.constrain, "constrain", CONSTRAINTS)
-        given = [n for n in SAMPLING_FIELDS if getattr(self, n) not in (None, "none")]
-        if not given:
+        name = next((n for n in SAMPLING_FIELDS if getattr(self, n) not in (None, "none")), None)
+        if name is None:
             return
-        name = given[0]
         if not (self.endpoint or self.local_model):
             raise InputError(name, "sets how a server samples: it needs `endpoint` (with `model`) or `local_model`")
         if self.exact:
@@ -365,9 +363,8 @@ class RunOptions:
         if self.goals is not None:
             if isinstance(self.goals, str) or not isinstance(self.goals, Sequence) or not self.goals:
                 raise InputError("goals", "must be a sequence of room names, one per candidate", self.goals)
-            for g in self.goals:
-                if not isinstance(g, str) or not g.strip():
-                    raise InputError("goals", "must be room names", list(self.goals))
+            if not all(isinstance(g, str) and g.strip() for g in self.goals):
+                raise InputError("goals", "must be room names", list(self.goals))
             object.__setattr__(self, "goals", tuple(self.goals))
         _convert(self, "tolerance", real, low=0.0, high=1.0, what="a relative difference in [0, 1]")
 

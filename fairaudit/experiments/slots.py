@@ -215,10 +215,6 @@ def outcome_index(task: DeliveryTask) -> npt.NDArray[np.intp]:
     return out
 
 
-def _one_hot(index: npt.NDArray[np.intp], n: int) -> npt.NDArray[np.float64]:
-    return np.eye(n)[index]
-
-
 def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
     """The per-candidate kernel from the model's kernel on shown cells.
 
@@ -245,7 +241,7 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
     c = np.asarray(raw, dtype=float).reshape(n_ctx, *([n_p] * k), -1)
     o = outcome_index(task)
     views = (c.transpose(0, *(1 + j for j in _rotation(k, i)), k + 1).reshape(n_ctx, n_p**k, -1) for i in range(k))
-    per_slot = [view @ _one_hot(o[i], len(task.outcomes)) for i, view in enumerate(views)]
+    per_slot = [view @ np.eye(len(task.outcomes))[o[i]] for i, view in enumerate(views)]
     out = np.stack(per_slot, axis=1).reshape(n_ctx * k, n_p**k, len(task.outcomes))
     args = (candidate_contexts(task), _views(task), task.outcomes)
     if kernel.counts is not None:

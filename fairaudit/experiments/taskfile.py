@@ -56,7 +56,6 @@ __all__ = [
 BUILT_IN = ("hr-delivery", "package-delivery")
 """The tasks shipped with fairaudit (``fairaudit/experiments/tasks/<name>.toml``)."""
 
-_DEFAULT_OUTCOMES = {"choose": ("chosen", "not chosen"), "rank": None}
 _UNRANKED = ("unranked",)  # the outcome of a candidate that a partial ranking leaves out
 
 
@@ -346,9 +345,8 @@ def _outcome_labels(f: TaskFile) -> tuple[str, ...]:
         return (*f.decision.outcomes, *_UNRANKED[: f.decision.partial])
     if k == 1:
         return tuple(str(v) for v in (f.decision.table or {}).values())
-    default = _DEFAULT_OUTCOMES[f.task.decision]
-    if default is not None:
-        return default
+    if f.task.decision == "choose":
+        return ("chosen", "not chosen")
     return (*(f"rank {r}" for r in range(1, k + 1)), *_UNRANKED[: f.decision.partial])
 
 
@@ -501,11 +499,8 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
 def _shown_text(a: AttributeSection) -> dict[Hashable, tuple[str, ...]] | None:
     if a.text is None:
         return None
-    out: dict[Hashable, tuple[str, ...]] = {}
-    for v in a.values:
-        shown = a.text[format_label(v)]
-        out[v] = (shown,) if isinstance(shown, str) else tuple(shown)
-    return out
+    texts = {key: (shown,) if isinstance(shown, str) else tuple(shown) for key, shown in a.text.items()}
+    return {v: texts[format_label(v)] for v in a.values}
 
 
 def _population(f: TaskFile, attributes: tuple[Attribute, ...]) -> tuple[Literal["listed", "distinct", "all"], tuple]:
@@ -586,14 +581,10 @@ def _random_reply_utility(f: TaskFile, values: list[float]) -> float:
     ``unranked``, so the mean of g over rank 1 to k. Summed in exact fractions of the values, rounded once.
     """
     k = f.task.candidates
-    if k == 1:
-        n = len(f.decision.table or {})
-        exact = sum((Fraction(v) for v in values[:n]), Fraction(0)) / n
-    elif f.task.decision == "choose":
-        exact = Fraction(values[0]) / k + Fraction(values[1]) * (k - 1) / k
-    else:
-        exact = sum((Fraction(v) for v in values[:k]), Fraction(0)) / k
-    return float(exact)
+    if k > 1 and f.task.decision == "choose":
+        return float(Fraction(values[0]) / k + Fraction(values[1]) * (k - 1) / k)
+    n = len(f.decision.table or {}) if k == 1 else k
+    return float(sum((Fraction(v) for v in values[:n]), Fraction(0)) / n)
 
 
 def _utility_name(outcomes: tuple[str, ...], values: list[float], unparsed: float) -> str:

@@ -26,7 +26,7 @@ networkx (A*, topology) and pillow (images) are imported only by the functions
 that need them.
 """
 
-from .images import GOAL_RGB, ROUTE_MARGIN, ROUTE_RGB, START_RGB, route_image, route_window, save_route_image
+from .images import GOAL_RGB, ROUTE_MARGIN, ROUTE_RGB, START_RGB, route_image, route_window
 from .maps import CEILING_MARGIN, Maps, build_maps
 from .routes import (
     MAX_SNAP,
@@ -87,6 +87,5 @@ __all__ = [
     "route_alternatives",
     "route_image",
     "route_window",
-    "save_route_image",
     "write_office_floor",
 ]

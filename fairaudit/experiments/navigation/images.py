@@ -2,7 +2,7 @@
 
 Each route is shown to the vision-language model as "the top-down floorplan with the route to the office
 highlighted in red, and the index printed in the upper-left corner of the image: 1 for HR1, 2 for HR2" (the
-paper's Methods): :func:`route_image`, :func:`save_route_image`. The start and the goal are marked with discs
+paper's Methods): :func:`route_image`. The start and the goal are marked with discs
 (:data:`START_RGB`, :data:`GOAL_RGB`) and a scale bar gives the metres in the lower-left corner. An image shows
 the whole grid or a window of it: :func:`route_window` frames a scene's routes, so that the images of a building
 show the rooms the routes cross, all of them in the same frame.
@@ -13,9 +13,8 @@ from __future__ import annotations
 import io
 import math
 from collections.abc import Sequence
-from pathlib import Path
 from types import ModuleType
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,22 +22,11 @@ from fairaudit import InputError, optional_modules, real, whole
 
 from .maps import Maps, check_maps
 
-
-class _Route(Protocol):
-    """What :func:`route_image` reads of a :class:`~fairaudit.experiments.navigation.routes.Route`.
-
-    Its cells, shape (k, 2), int: (row, col) from start to goal; and its goal, for messages. (A protocol, so that
-    this module does not import :mod:`~fairaudit.experiments.navigation.routes`, which imports it.)
-    """
-
-    @property
-    def cells(self) -> np.ndarray: ...
-
-    @property
-    def goal(self) -> Any: ...
+if TYPE_CHECKING:
+    from .routes import Route  # routes imports this module: for the annotations only
 
 
-__all__ = ["GOAL_RGB", "ROUTE_MARGIN", "ROUTE_RGB", "START_RGB", "route_image", "route_window", "save_route_image"]
+__all__ = ["GOAL_RGB", "ROUTE_MARGIN", "ROUTE_RGB", "START_RGB", "route_image", "route_window"]
 
 #: Colour of the route in :func:`route_image` (pure red; never used by the background).
 ROUTE_RGB = (255, 0, 0)
@@ -78,25 +66,12 @@ def _background(maps: Maps) -> np.ndarray:
     :data:`START_RGB` or pure blue :data:`GOAL_RGB`.
     """
     c = maps.top_color.astype(float)
-    out = np.full(c.shape, 28.0)
-    has = ~np.isnan(maps.top_height)
-    light = 0.35 * c + 0.65 * 255.0
-    margin = 0.35 * c + 0.65 * 200.0
-    dark = 0.45 * c
-    out[has] = dark[has]
-    m = maps.free & ~maps.traversable
-    out[m] = margin[m]
-    out[maps.traversable] = light[maps.traversable]
-    return np.rint(out).astype(np.uint8)
+    kinds = (maps.traversable, maps.free & ~maps.traversable, ~np.isnan(maps.top_height))  # the first that holds
+    shades = (0.35 * c + 0.65 * 255.0, 0.35 * c + 0.65 * 200.0, 0.45 * c)  # light, margin, dark
+    return np.rint(np.select([k[..., None] for k in kinds], shades, 28.0)).astype(np.uint8)
 
 
-def _scale(shape: tuple[int, int], scale: int | None) -> int:
-    if scale is None:
-        return max(1, math.ceil(800 / max(shape)))
-    return whole(scale, "scale", low=1, high=64)
-
-
-def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_MARGIN) -> Window:
+def route_window(maps: Maps, routes: Sequence[Route], *, margin: float = ROUTE_MARGIN) -> Window:
     """The grid window around every cell of ``routes``, ``margin`` metres wider on each side, clipped to the grid.
 
     The common frame of a scene's route images (:func:`route_image`'s ``window``): the routes and what lies
@@ -144,7 +119,7 @@ def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_
     return (max(0, int(r0) - pad), min(rows, int(r1) + pad + 1), max(0, int(c0) - pad), min(cols, int(c1) + pad + 1))
 
 
-def _route_cells(maps: Maps, route: _Route, field: str) -> np.ndarray:
+def _route_cells(maps: Maps, route: Route, field: str) -> np.ndarray:
     """The route's cells (k, 2), checked: a Route planned on ``maps``."""
     cells = getattr(route, "cells", None)
     if not (isinstance(cells, np.ndarray) and cells.ndim == 2 and cells.shape[1] == 2 and hasattr(route, "goal")):
@@ -174,7 +149,7 @@ def _window(maps: Maps, window: Window | None, cells: np.ndarray) -> Window:
 
 
 def route_image(
-    maps: Maps, route: _Route, index: int | str, *, scale: int | None = None, window: Window | None = None
+    maps: Maps, route: Route, index: int | str, *, scale: int | None = None, window: Window | None = None
 ) -> bytes:
     """PNG of the top view with ``route`` in red, start and goal markers, ``index`` and a scale bar.
 
@@ -267,7 +242,7 @@ def route_image(
         raise InputError("index", "must not be empty", index)
     r0, r1, c0, c1 = _window(maps, window, cells)
     rows = r1 - r0
-    k = _scale((rows, c1 - c0), scale)
+    k = max(1, math.ceil(800 / max(rows, c1 - c0))) if scale is None else whole(scale, "scale", low=1, high=64)
     Image, ImageDraw, ImageFont = _pillow()
     rgb = np.repeat(np.repeat(_background(maps)[r0:r1, c0:c1][::-1], k, axis=0), k, axis=1)
     img = Image.fromarray(np.ascontiguousarray(rgb))
@@ -332,50 +307,3 @@ def _scale_bar(draw: Any, ImageFont: ModuleType, size: tuple[int, int], resoluti
     draw.text((pad - left, y0 + pad - top), text, fill=(0, 0, 0), font=font)
     bar_y = h - pad - thick
     draw.rectangle((pad, bar_y, pad + length - 1, bar_y + thick - 1), fill=(0, 0, 0))
-
-
-def save_route_image(
-    path: str | Path,
-    maps: Maps,
-    route: _Route,
-    index: int | str,
-    *,
-    scale: int | None = None,
-    window: Window | None = None,
-) -> None:
-    """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit.base.files.write_atomic`).
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        Ends in ``.png``; its folder must exist.
-    maps, route, index, scale, window
-        As :func:`route_image`.
-
-    Returns
-    -------
-    None
-
-    Raises
-    ------
-    InputError
-        Naming ``path`` (not ``.png``, folder missing or not writable), or as
-        :func:`route_image`.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> from pathlib import Path
-    >>> from fairaudit.experiments.navigation import build_maps, plan_route, read_area, write_office_floor
-    >>> with tempfile.TemporaryDirectory() as tmp:
-    ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.25)), resolution=0.25)
-    ...     route = plan_route(maps, "lobby_1", "office_1")
-    ...     save_route_image(Path(tmp, "hr1.png"), maps, route, 1, scale=2)
-    ...     Path(tmp, "hr1.png").read_bytes() == route_image(maps, route, 1, scale=2)
-    True
-    """
-    from fairaudit import write_atomic
-
-    if Path(path).suffix.lower() != ".png":
-        raise InputError("path", "must end in .png", str(path))
-    write_atomic(path, route_image(maps, route, index, scale=scale, window=window), field="path")

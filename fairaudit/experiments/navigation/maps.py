@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -151,7 +151,7 @@ class Maps:
     traversable: np.ndarray
     room_labels: np.ndarray
     rooms: tuple[str, ...]
-    topology: networkx.Graph | None
+    topology: networkx.Graph
     floor_z: float
     ceiling_z: np.ndarray
     floor_band: float
@@ -172,11 +172,7 @@ class Maps:
             ``floor((y - oy) / res)`` and ``floor((x - ox) / res)``; may lie
             outside the grid (check with :meth:`contains`). :func:`build_maps` has examples.
         """
-        x = np.asarray(x, dtype=float)
-        y = np.asarray(y, dtype=float)
-        row = np.floor((y - self.origin[1]) / self.resolution + 1e-9).astype(np.int64)
-        col = np.floor((x - self.origin[0]) / self.resolution + 1e-9).astype(np.int64)
-        return row, col
+        return _row_col(x, y, self.origin, self.resolution)
 
     def cell_to_world(self, row: npt.ArrayLike, col: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """The (x, y) of the centre of cell (row, col), metres (:func:`build_maps` has examples)."""
@@ -189,15 +185,6 @@ class Maps:
         row = np.asarray(row)
         col = np.asarray(col)
         return (row >= 0) & (row < self.shape[0]) & (col >= 0) & (col < self.shape[1])
-
-    def room_at(self, x: float, y: float) -> str | None:
-        """The name of the room at (x, y) (:attr:`room_labels`), or None off the grid or where no point (:func:`build_maps`
-        has examples)."""
-        row, col = self.world_to_cell(x, y)
-        if not bool(self.contains(row, col)):
-            return None
-        label = int(self.room_labels[int(row), int(col)])
-        return self.rooms[label] if label >= 0 else None
 
 
 def check_maps(maps: object) -> None:
@@ -279,8 +266,9 @@ def build_maps(
     >>> maps = build_maps(area, resolution=0.2)
     >>> maps.shape, maps.origin, round(maps.floor_z, 2)
     ((40, 60), (0.0, 0.0), 0.0)
-    >>> maps.room_at(2.0, 6.5), bool(maps.traversable[maps.world_to_cell(2.0, 6.5)]), maps.room_at(-1.0, 0.0)
-    ('office_1', True, None)
+    >>> cell = maps.world_to_cell(2.0, 6.5)
+    >>> maps.rooms[maps.room_labels[cell]], bool(maps.traversable[cell]), bool(maps.contains(*maps.world_to_cell(-1.0, 0.0)))
+    ('office_1', True, False)
     >>> [int(v) for v in maps.world_to_cell(2.5, 0.3)], maps.cell_to_world([1, 0], [12, 0])
     ([1, 12], (array([2.5, 0.1]), array([0.3, 0.1])))
     >>> sorted(maps.topology.neighbors("hallway_1"))
@@ -294,7 +282,13 @@ def build_maps(
     """
     if not isinstance(area, (Area, str, os.PathLike)):
         raise InputError("area", "must be an Area from read_area or an area folder", type(area).__name__)
-    res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
+    res = _metres("resolution", resolution)
+    band = _metres("floor_band", floor_band)
+    clear = math.inf if clearance is None else _metres("clearance", clearance)
+    if clear <= band:
+        raise InputError("clearance", "must be larger than floor_band", clearance)
+    radius = _metres("robot_radius", robot_radius, allow_zero=True)
+    gap = _metres("door_gap", door_gap, allow_zero=True)
     cut = None if ceiling is None else real(ceiling, "ceiling", what="a finite height in metres")
     nx = require_networkx()
     g = _grids(area if isinstance(area, Area) else Path(area), res, resolution, cut, band, clear)
@@ -392,7 +386,7 @@ def _scan(source: Area | Path, cut: float | None) -> _Scan:
     scan = _Scan(names=[], ceiling_z=[], bboxes=[], centres=[], floor=[], fallback=[])
     for r in _rooms(source):
         z = r.points[:, 2]
-        cz = float(_ceilings([r], cut)[0])
+        cz = _ceiling(r, cut)
         keep = (r.categories != _CEILING) & (z <= cz)
         is_floor = keep & (r.categories == _FLOOR)
         centre, bbox = _room_summary(r.points[:, 0], r.points[:, 1], is_floor)
@@ -435,16 +429,13 @@ def _grids(source: Area | Path, res: float, resolution: float, cut: float | None
             raise InputError(str(source), "the area's rooms changed while it was read", r.name)
         x, y, z = r.points[:, 0], r.points[:, 1], r.points[:, 2]
         keep = (r.categories != _CEILING) & (z <= scan.ceiling_z[i])
-        flat = _cells(x, y, origin, shape, res)
+        row, col = _row_col(x, y, origin, res)
+        flat = row * shape[1] + col
         cells, top = _highest(flat, z, keep)
-        won = cells[~(top_height[cells] > z[top])]  # NaN or lower: this room's point wins (ties: the later room)
-        top_i = top[~(top_height[cells] > z[top])]
-        top_height[won], top_color[won], top_category[won], top_room[won] = (
-            z[top_i],
-            r.colors[top_i],
-            r.categories[top_i],
-            i,
-        )
+        wins = ~(top_height[cells] > z[top])  # NaN or lower: this room's point wins (ties: the later room)
+        won, top_i = cells[wins], top[wins]
+        top_height[won], top_color[won] = z[top_i], r.colors[top_i]
+        top_category[won], top_room[won] = r.categories[top_i], i
         cells, low = _highest(flat, z, keep & (z <= floor_z + clear))
         better = ~(low_height[cells] > z[low])
         low_height[cells[better]], low_room[cells[better]] = z[low[better]], i
@@ -467,36 +458,19 @@ def _grids(source: Area | Path, res: float, resolution: float, cut: float | None
     )
 
 
-def _lengths(
-    resolution: float, floor_band: float, clearance: float | None, robot_radius: float, door_gap: float
-) -> tuple[float, float, float, float, float]:
-    """The lengths of :func:`build_maps`, checked: resolution, floor band, clearance (+inf for None), radius, gap."""
-    res = _metres("resolution", resolution)
-    band = _metres("floor_band", floor_band)
-    clear = math.inf if clearance is None else _metres("clearance", clearance)
-    if clear <= band:
-        raise InputError("clearance", "must be larger than floor_band", clearance)
-    radius = _metres("robot_radius", robot_radius, allow_zero=True)
-    gap = _metres("door_gap", door_gap, allow_zero=True)
-    return res, band, clear, radius, gap
-
-
-def _ceilings(rooms: Sequence[Room], cut: float | None) -> np.ndarray:
-    """Per room, the height above which its points are removed (+inf: none by height); see :func:`build_maps`."""
-    ceiling_z = np.full(len(rooms), np.inf)
-    for i, r in enumerate(rooms):
-        if len(r.points) == 0:
-            continue
-        if cut is not None:
-            ceiling_z[i] = cut
-            continue
-        rz = r.points[:, 2]
-        is_ceiling = r.categories == _CEILING
-        if is_ceiling.any():
-            ceiling_z[i] = float(np.median(rz[is_ceiling])) - CEILING_MARGIN
-        elif (r.categories == UNLABELLED).all():
-            ceiling_z[i] = float(np.quantile(rz, CEILING_QUANTILE)) - CEILING_MARGIN
-    return ceiling_z
+def _ceiling(r: Room, cut: float | None) -> float:
+    """The height above which the room's points are removed (+inf: none by height); see :func:`build_maps`."""
+    if len(r.points) == 0:
+        return math.inf
+    if cut is not None:
+        return cut
+    rz = r.points[:, 2]
+    is_ceiling = r.categories == _CEILING
+    if is_ceiling.any():
+        return float(np.median(rz[is_ceiling])) - CEILING_MARGIN
+    if (r.categories == UNLABELLED).all():
+        return float(np.quantile(rz, CEILING_QUANTILE)) - CEILING_MARGIN
+    return math.inf
 
 
 def _frame(
@@ -504,7 +478,7 @@ def _frame(
 ) -> tuple[tuple[float, float], tuple[int, int]]:
     """The grid of points spanning that bounding box: its origin and its shape (rows, cols).
 
-    The last row and column are those of (x_max, y_max) under :func:`_cells` (the cell index is monotone in
+    The last row and column are those of (x_max, y_max) under :func:`_row_col` (the cell index is monotone in
     the coordinate, so the bounding box alone gives the grid of all the points).
     """
     ox = math.floor(x_min / res + 1e-9) * res
@@ -517,11 +491,13 @@ def _frame(
     return (float(ox), float(oy)), shape
 
 
-def _cells(x: np.ndarray, y: np.ndarray, origin: tuple[float, float], shape: tuple[int, int], res: float) -> np.ndarray:
-    """Each point's flat cell index (row-major) on the grid of ``origin`` and ``shape``."""
-    ci = np.floor((x - origin[0]) / res + 1e-9).astype(np.int64)
-    ri = np.floor((y - origin[1]) / res + 1e-9).astype(np.int64)
-    return ri * shape[1] + ci
+def _row_col(
+    x: npt.ArrayLike, y: npt.ArrayLike, origin: tuple[float, float], res: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) of the cell holding each point (x, y) on the grid of ``origin`` and ``res`` (may lie off it)."""
+    row = np.floor((np.asarray(y, dtype=float) - origin[1]) / res + 1e-9).astype(np.int64)
+    col = np.floor((np.asarray(x, dtype=float) - origin[0]) / res + 1e-9).astype(np.int64)
+    return row, col
 
 
 def _room_summary(

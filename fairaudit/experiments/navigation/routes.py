@@ -23,9 +23,9 @@ corner of the image: 1 for HR1, 2 for HR2" (:func:`route_image`).
 
 from __future__ import annotations
 
+import itertools
 import math
 import tempfile
-import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,7 +38,7 @@ from fairaudit import InputError, real, whole
 from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, check_maps, require_networkx
 from .synthetic import write_office_floor
-from .topology import door_paths, grid_edges
+from .topology import door_paths, grid_edges, per_maps
 
 if TYPE_CHECKING:
     import networkx
@@ -60,8 +60,6 @@ __all__ = [
 
 #: Default largest distance (metres) from a start or goal to the traversable cell it is moved to.
 MAX_SNAP = 1.0
-
-_GRAPHS: weakref.WeakKeyDictionary[Maps, networkx.Graph] = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -168,15 +166,13 @@ class DeliveryScene:
 # -- A* -------------------------------------------------------------------------------------------------
 
 
+@per_maps
 def _grid_graph(maps: Maps) -> networkx.Graph:
-    graph = _GRAPHS.get(maps)
-    if graph is None:
-        nx = require_networkx()
-        u, v, w = grid_edges(maps.traversable, maps.resolution)
-        graph = nx.Graph()
-        graph.add_nodes_from(np.flatnonzero(maps.traversable.ravel()).tolist())
-        graph.add_weighted_edges_from(zip(u.tolist(), v.tolist(), w.tolist()))
-        _GRAPHS[maps] = graph
+    nx = require_networkx()
+    u, v, w = grid_edges(maps.traversable, maps.resolution)
+    graph = nx.Graph()
+    graph.add_nodes_from(np.flatnonzero(maps.traversable.ravel()).tolist())
+    graph.add_weighted_edges_from(zip(u.tolist(), v.tolist(), w.tolist()))
     return graph
 
 
@@ -186,7 +182,7 @@ def _endpoint(maps: Maps, where: Place, field: str, max_snap: float) -> tuple[in
     if isinstance(where, str):
         if where not in maps.rooms:
             raise InputError(field, f"no such room (rooms: {', '.join(maps.rooms)})", where)
-        x, y = maps.topology.nodes[where]["centre"] if maps.topology is not None else (math.nan, math.nan)
+        x, y = maps.topology.nodes[where]["centre"]
         if not (math.isfinite(x) and math.isfinite(y)):
             raise InputError(field, "room has no points to take a centre from", where)
         mine = trav & (maps.room_labels == maps.rooms.index(where))
@@ -305,9 +301,7 @@ def _route(
     steps = np.abs(np.diff(cells, axis=0)).sum(axis=1)
     length = float(maps.resolution * (np.sum(steps == 1) + math.sqrt(2.0) * np.sum(steps == 2)))
     labels = maps.room_labels[cells[:, 0], cells[:, 1]]
-    labels = labels[labels >= 0]
-    keep = np.r_[True, labels[1:] != labels[:-1]] if len(labels) else np.zeros(0, bool)
-    rooms = tuple(maps.rooms[int(i)] for i in labels[keep])
+    rooms = tuple(maps.rooms[int(i)] for i, _ in itertools.groupby(labels[labels >= 0]))  # repeats collapsed
     for a in (cells, points):
         a.setflags(write=False)
     return Route(

@@ -66,7 +66,7 @@ CATEGORIES = (
 #: Code of ``"unlabelled"`` in :data:`CATEGORIES`.
 UNLABELLED = CATEGORIES.index("unlabelled")
 
-_CODE = {name: i for i, name in enumerate(CATEGORIES)}
+_CODE = {name: i for i, name in enumerate(CATEGORIES) if i != UNLABELLED}  # an Annotations file is never unlabelled
 _INSTANCE = re.compile(r"^(?P<category>.+?)_(?P<k>\d+)$")
 
 
@@ -109,21 +109,6 @@ class Room:
     instances: tuple[str, ...]
     skipped_rows: int
 
-    @property
-    def kind(self) -> str:
-        """The room's kind: its name without the trailing ``_<k>`` (``"office"`` for ``office_1``)."""
-        return room_kind(self.name)
-
-    @property
-    def category_names(self) -> np.ndarray:
-        """Shape (n,): the category name of each point (from :attr:`categories`)."""
-        return np.asarray(CATEGORIES, dtype=object)[self.categories]
-
-    @property
-    def labelled(self) -> bool:
-        """Whether the points come from Annotations (categories known)."""
-        return len(self.instances) > 0
-
 
 @dataclass(frozen=True, eq=False)
 class Area:
@@ -141,27 +126,9 @@ class Area:
     rooms: tuple[Room, ...]
 
     @property
-    def skipped_rows(self) -> int:
-        """Rows dropped over every room."""
-        return sum(r.skipped_rows for r in self.rooms)
-
-    @property
     def room_names(self) -> tuple[str, ...]:
         """The rooms' names, sorted."""
         return tuple(r.name for r in self.rooms)
-
-    def room(self, name: str) -> Room:
-        """The room called ``name``.
-
-        Raises
-        ------
-        InputError
-            Naming ``room`` when the area has no such room.
-        """
-        for r in self.rooms:
-            if r.name == name:
-                return r
-        raise InputError("room", f"no such room in {self.name}", name)
 
 
 def room_kind(name: str) -> str:
@@ -264,10 +231,6 @@ def _instance_key(stem: str) -> tuple:
     return (m.group("category"), int(m.group("k")), stem) if m else (stem, -1, stem)
 
 
-def _colors(rows: np.ndarray) -> np.ndarray:
-    return np.clip(np.rint(rows[:, 3:6]), 0, 255).astype(np.uint8)
-
-
 def read_room(room_dir: str | Path) -> Room:
     """Read one S3DIS room folder (the layout of Armeni et al. 2016, see the module docstring).
 
@@ -301,7 +264,7 @@ def read_room(room_dir: str | Path) -> Room:
     ...     _ = Path(ann, "floor_1.txt").write_text("0.5 0.5 0.0 200 190 180\\n1.5 0.5 0.0 200 190 180\\n")
     ...     _ = Path(ann, "chair_1.txt").write_text("1.5 0.5 0.4 20 20 200\\n1.5 0.5 0.x 20 20 200\\n")
     ...     room = read_room(Path(tmp, "office_1"))
-    >>> room.instances, room.category_names.tolist(), room.skipped_rows
+    >>> room.instances, [CATEGORIES[c] for c in room.categories], room.skipped_rows
     (('chair_1', 'floor_1'), ['chair', 'floor', 'floor'], 1)
     >>> room.points[0].tolist(), room.colors[0].tolist()
     ([1.5, 0.5, 0.4], [20, 20, 200])
@@ -313,15 +276,11 @@ def read_room(room_dir: str | Path) -> Room:
     annotations = folder / "Annotations"
     files = sorted(annotations.glob("*.txt"), key=lambda f: _instance_key(f.stem)) if annotations.is_dir() else []
     if files:
-        blocks, codes, skipped = [], [], 0
-        for f in files:
-            rows, bad = read_points(f)
-            skipped += bad
-            code = _CODE.get(room_kind(f.stem), _CODE["clutter"])
-            codes.append(_CODE["clutter"] if code == UNLABELLED else code)
-            blocks.append(rows)
-        sizes = [len(b) for b in blocks]
-        rows = np.concatenate(blocks)
+        read = [read_points(f) for f in files]
+        skipped = sum(bad for _, bad in read)
+        codes = [_CODE.get(room_kind(f.stem), _CODE["clutter"]) for f in files]
+        sizes = [len(block) for block, _ in read]
+        rows = np.concatenate([block for block, _ in read])
         categories = np.repeat(np.array(codes, dtype=np.uint8), sizes)
         instance_ids = np.repeat(np.arange(len(files), dtype=np.int32), sizes)
         instances = tuple(f.stem for f in files)
@@ -336,7 +295,7 @@ def read_room(room_dir: str | Path) -> Room:
     return Room(
         name=name,
         points=_frozen(np.ascontiguousarray(rows[:, :3], dtype=np.float64)),
-        colors=_frozen(_colors(rows)),
+        colors=_frozen(np.clip(np.rint(rows[:, 3:6]), 0, 255).astype(np.uint8)),
         categories=_frozen(categories),
         instance_ids=_frozen(instance_ids),
         instances=instances,
@@ -375,22 +334,11 @@ def read_area(area_dir: str | Path) -> Area:
     ...     area = read_area(write_office_floor(tmp, spacing=0.25))
     >>> area.name, area.room_names
     ('Area_1', ('WC_1', 'conferenceRoom_1', 'hallway_1', 'lobby_1', 'office_1', 'office_2', 'storage_1'))
-    >>> area.room("office_1").kind, area.skipped_rows
+    >>> room_kind(area.rooms[4].name), sum(room.skipped_rows for room in area.rooms)
     ('office', 0)
     """
     folder = Path(area_dir)
     return Area(name=folder.name, rooms=tuple(iter_rooms(folder)))
-
-
-def _room_folders(folder: Path) -> list[Path]:
-    if not folder.is_dir():
-        raise InputError("area_dir", "folder not found", str(folder))
-    if (folder / "Annotations").is_dir() or (folder / f"{folder.name}.txt").is_file():
-        raise InputError("area_dir", "is a room folder (it holds Annotations or its .txt): give its area", str(folder))
-    rooms = sorted((d for d in folder.iterdir() if d.is_dir() and not d.name.startswith(".")), key=lambda d: d.name)
-    if not rooms:
-        raise InputError(str(folder), "area has no room folders")
-    return rooms
 
 
 def iter_rooms(area_dir: str | Path) -> Iterator[Room]:
@@ -423,5 +371,12 @@ def iter_rooms(area_dir: str | Path) -> Iterator[Room]:
     >>> list(sizes)[:3], sizes["office_1"]
     (['WC_1', 'conferenceRoom_1', 'hallway_1'], 1196)
     """
-    rooms = _room_folders(Path(area_dir))
+    folder = Path(area_dir)
+    if not folder.is_dir():
+        raise InputError("area_dir", "folder not found", str(folder))
+    if (folder / "Annotations").is_dir() or (folder / f"{folder.name}.txt").is_file():
+        raise InputError("area_dir", "is a room folder (it holds Annotations or its .txt): give its area", str(folder))
+    rooms = sorted((d for d in folder.iterdir() if d.is_dir() and not d.name.startswith(".")), key=lambda d: d.name)
+    if not rooms:
+        raise InputError(str(folder), "area has no room folders")
     return (read_room(d) for d in rooms)

@@ -267,15 +267,9 @@ def _vertical(axis: str, at: float, a0: float, a1: float, z0: float, z1: float, 
 
 
 def _box(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, s: float) -> np.ndarray:
-    return np.concatenate(
-        [
-            _horizontal(x0, x1, y0, y1, z1, s),
-            _vertical("y", y0, x0, x1, z0, z1, s),
-            _vertical("y", y1, x0, x1, z0, z1, s),
-            _vertical("x", x0, y0, y1, z0, z1, s),
-            _vertical("x", x1, y0, y1, z0, z1, s),
-        ]
-    )
+    sides = [_vertical("y", y, x0, x1, z0, z1, s) for y in (y0, y1)]  # south and north, then west and east
+    sides += [_vertical("x", x, y0, y1, z0, z1, s) for x in (x0, x1)]
+    return np.concatenate([_horizontal(x0, x1, y0, y1, z1, s), *sides])
 
 
 def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
@@ -299,15 +293,9 @@ def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
             f = FRAME if framed else 0.0
             pieces.append(_vertical(axis, at, a0 - f, a1 + f, DOOR_TOP + 0.1, top, s))  # lintel
             if framed:
-                doors.append(
-                    np.concatenate(
-                        [
-                            _vertical(axis, at, a0 - f, a0, 0.0, DOOR_TOP, s),  # jambs
-                            _vertical(axis, at, a1, a1 + f, 0.0, DOOR_TOP, s),
-                            _vertical(axis, at, a0 - f, a1 + f, DOOR_TOP, DOOR_TOP + 0.1, s),  # head
-                        ]
-                    )
-                )
+                jambs = [_vertical(axis, at, u, v, 0.0, DOOR_TOP, s) for u, v in ((a0 - f, a0), (a1, a1 + f))]
+                head = _vertical(axis, at, a0 - f, a1 + f, DOOR_TOP, DOOR_TOP + 0.1, s)
+                doors.append(np.concatenate([*jambs, head]))
         for _, a0, a1, z0, z1 in windows:
             pieces += [_vertical(axis, at, a0, a1, 0.0, z0, s), _vertical(axis, at, a0, a1, z1, top, s)]
         inst.append(("wall", np.concatenate(pieces)))
@@ -409,29 +397,25 @@ def write_office_floor(
     for index, spec in enumerate(_layout() if layout == LAYOUTS[0] else _two_corridor_layout()):
         rng = np.random.default_rng([int(seed), index])
         tables: list[pd.DataFrame] = []
-        names: list[str] = []
         counts: dict[str, int] = {}
-        for category, pts in _room_instances(spec, s):
-            if len(pts) == 0:
-                continue
-            counts[category] = counts.get(category, 0) + 1
-            names.append(f"{category}_{counts[category]}")
-            tables.append(_table(pts, category, rng, s))
-        _write_room(out, spec.name, names, tables)
+        with staged_room(out, spec.name) as tmp:
+            for category, pts in _room_instances(spec, s):
+                if len(pts):
+                    counts[category] = counts.get(category, 0) + 1
+                    tables.append(_table(pts, category, rng, s))
+                    _write_table(tables[-1], tmp / "Annotations" / f"{category}_{counts[category]}.txt")
+            _write_table(pd.concat(tables, ignore_index=True), tmp / f"{spec.name}.txt")
+            _replace_room(tmp, out / spec.name)
     return out
 
 
-def _write_room(area_dir: Path, name: str, names: list[str], tables: list[pd.DataFrame]) -> None:
-    with staged_room(area_dir, name) as tmp:
-        for inst, frame in zip(names, tables):
-            _write_table(frame, tmp / "Annotations" / f"{inst}.txt")
-        _write_table(pd.concat(tables, ignore_index=True), tmp / f"{name}.txt")
-        target = area_dir / name
-        old = None
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".old", dir=area_dir))
-            os.rmdir(old)
-            os.replace(target, old)
-        os.replace(tmp, target)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+def _replace_room(tmp: Path, target: Path) -> None:
+    """Rename the staged room ``tmp`` to ``target``, moving an existing room aside first and removing it after."""
+    old = None
+    if target.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+        os.rmdir(old)
+        os.replace(target, old)
+    os.replace(tmp, target)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)

@@ -19,11 +19,13 @@ resolution·√2 and needs all four cells of its 2 x 2 block traversable.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -39,8 +41,6 @@ __all__ = ["Door", "DoorPath", "door_paths", "find_doors", "grid_edges", "passab
 #: Room paths tried per requested candidate before giving up (some may not be realisable on the grid).
 TRIES_PER_CANDIDATE = 4
 
-_DOORS: weakref.WeakKeyDictionary[Maps, tuple[Door, ...]] = weakref.WeakKeyDictionary()
-_ROOM_GRAPHS: weakref.WeakKeyDictionary[Maps, networkx.Graph] = weakref.WeakKeyDictionary()
 _SEARCHES: weakref.WeakKeyDictionary[Maps, dict[tuple[int, int], _Search]] = weakref.WeakKeyDictionary()
 
 
@@ -106,6 +106,42 @@ class DoorPath:
     length: float
 
 
+_T = TypeVar("_T")
+
+
+def per_maps(build: Callable[[Maps], _T]) -> Callable[[Maps], _T]:
+    """``build(maps)`` made once per :class:`Maps`, after :func:`check_maps`, and kept as long as the maps are.
+
+    A decorator: the doors, the passable graph and the A* grid graph are each computed once per map.
+
+    Parameters
+    ----------
+    build : callable
+        ``build(maps)``, a pure function of the maps.
+
+    Returns
+    -------
+    callable
+        ``build`` with the same name and docstring, whose results are held in a
+        :class:`weakref.WeakKeyDictionary` keyed by the maps.
+
+    Raises
+    ------
+    InputError
+        (When called) naming ``maps`` when it is not a :class:`Maps`.
+    """
+    made: weakref.WeakKeyDictionary[Maps, _T] = weakref.WeakKeyDictionary()
+
+    @functools.wraps(build)
+    def cached(maps: Maps) -> _T:
+        check_maps(maps)
+        if maps not in made:
+            made[maps] = build(maps)
+        return made[maps]
+
+    return cached
+
+
 def grid_edges(traversable: np.ndarray, resolution: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The 8-connected grid graph of the traversable cells, as edge lists on flat cell indices.
 
@@ -152,6 +188,7 @@ def grid_edges(traversable: np.ndarray, resolution: float) -> tuple[np.ndarray, 
     return np.concatenate(us), np.concatenate(vs), np.concatenate(ws)
 
 
+@per_maps
 def find_doors(maps: Maps) -> tuple[Door, ...]:
     """The passable openings between rooms, with one door point each.
 
@@ -190,14 +227,6 @@ def find_doors(maps: Maps) -> tuple[Door, ...]:
     >>> [(d.rooms, d.point) for d in find_doors(maps) if "office_1" in d.rooms]
     [(('hallway_1', 'office_1'), (2.9, 4.9))]
     """
-    check_maps(maps)
-    cached = _DOORS.get(maps)
-    if cached is None:
-        cached = _DOORS[maps] = _detect_doors(maps)
-    return cached
-
-
-def _detect_doors(maps: Maps) -> tuple[Door, ...]:
     from scipy import ndimage
 
     cols = maps.shape[1]
@@ -236,21 +265,7 @@ def _detect_doors(maps: Maps) -> tuple[Door, ...]:
     return tuple(sorted(doors, key=lambda d: (maps.rooms.index(d.rooms[0]), maps.rooms.index(d.rooms[1]), d.cell)))
 
 
-def _centres(maps: Maps) -> np.ndarray:
-    """(n_rooms, 2) room centres, metres: the topology's, else the mean of the room's cells (NaN: no cell)."""
-    out = np.full((len(maps.rooms), 2), np.nan)
-    labels = maps.room_labels
-    for i, name in enumerate(maps.rooms):
-        if maps.topology is not None:
-            out[i] = maps.topology.nodes[name]["centre"]
-        if not np.isfinite(out[i]).all():
-            r, c = np.nonzero(labels == i)
-            if len(r):
-                x, y = maps.cell_to_world(r, c)
-                out[i] = (float(x.mean()), float(y.mean()))
-    return out
-
-
+@per_maps
 def passable_graph(maps: Maps) -> networkx.Graph:
     """The rooms joined by passable doors (:func:`find_doors`), for room-level path search.
 
@@ -263,7 +278,7 @@ def passable_graph(maps: Maps) -> networkx.Graph:
     networkx.Graph
         Frozen. One node per room of :attr:`Maps.rooms` (rooms without any
         door are isolated), with ``centre`` (x, y, metres: the topology's
-        centre, else the mean of the room's cells). An edge per pair of rooms
+        centre; NaN for a room without points, which has no cell). An edge per pair of rooms
         with at least one door, with ``doors`` (tuple of :class:`Door`) and
         ``weight``: the shortest centre -> door point -> centre leg over its
         doors, Euclidean, metres. Edges of the topology through which the
@@ -286,12 +301,8 @@ def passable_graph(maps: Maps) -> networkx.Graph:
     >>> sorted(g.neighbors("office_1")), round(g.edges["hallway_1", "office_1"]["weight"], 2)
     (['hallway_1'], 5.06)
     """
-    check_maps(maps)
-    graph = _ROOM_GRAPHS.get(maps)
-    if graph is not None:
-        return graph
     nx = require_networkx()
-    centres = _centres(maps)
+    centres = np.array([maps.topology.nodes[name]["centre"] for name in maps.rooms], dtype=float).reshape(-1, 2)
     graph = nx.Graph()
     for i, name in enumerate(maps.rooms):
         graph.add_node(name, centre=(float(centres[i, 0]), float(centres[i, 1])))
@@ -301,9 +312,7 @@ def passable_graph(maps: Maps) -> networkx.Graph:
         ca, cb = centres[maps.rooms.index(a)], centres[maps.rooms.index(b)]
         legs = [math.hypot(*(ca - d.point)) + math.hypot(*(cb - d.point)) for d in ds]
         graph.add_edge(a, b, doors=ds, weight=float(np.nan_to_num(min(legs), nan=0.0)))
-    graph = nx.freeze(graph)
-    _ROOM_GRAPHS[maps] = graph
-    return graph
+    return nx.freeze(graph)
 
 
 # -- segments: shortest grid paths whose intermediate cells lie in one room --------------------------------

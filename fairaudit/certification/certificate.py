@@ -288,14 +288,8 @@ class Certificate:
             if set(self.targets) - set(self.calibration_targets):
                 out["left_out"] = reason or "not calibrated"
         else:
-            out = {
-                "epsilon": None,
-                "keep_probability": None,
-                "method": None,
-                "bound": None,
-                "feasible": False,
-                "reason": reason or "no calibration",
-            }
+            out = {**dict.fromkeys(("epsilon", "keep_probability", "method", "bound")), "feasible": False}
+            out["reason"] = reason or "no calibration"
         if self.calibration_white_box is not None:
             out["white_box"] = self.calibration_white_box.to_dict()
         proofs = member_proofs(self.spec, self.calibration, self._calibrated_members())

@@ -231,7 +231,6 @@ def fairness_range(
     point = not k[..., d].any()
     solver: dict[tuple[int, int], MinMaxRatio] = {}
     keys = np.flatnonzero(pop.p_context > 0)
-    per_context = _per_context(kernel, m_a, m_x, keys, e_lo, e_hi, solver, lower_end)
     nan = FairnessRange(
         kind="local", value=local.value, lower=math.nan, upper=math.nan, exact=True, lower_context=None,
         upper_context=None, lower_group=None, lower_other_group=None, upper_group=None, upper_other_group=None,
@@ -239,7 +238,7 @@ def fairness_range(
     global_nan = FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
     local_range, global_range = nan, global_nan
     if len(m_a.inputs) >= 2 and len(keys) > 0:
-        found = _local_range(per_context, keys, m_a, m_x, lower_end)
+        found = _local_range(kernel, m_a, m_x, keys, e_lo, e_hi, solver, lower_end)
         local_range = nan if found is None else _range("local", local.value, found, attained, point)
         found = _global_range(pop, m_a, m_x, e_lo, e_hi, solver, lower_end)
         global_range = global_nan if found is None else _range("global", glob.value, found, attained, point)
@@ -278,13 +277,11 @@ def _unknown_decision(
     return g, decision % n_d, lo_g, hi_g
 
 
-_Program = tuple[FloatArray, FloatArray, FloatArray]  # the mixing weights W and the box [lo, hi] of kernel cells
-_PerContext = tuple[FloatArray, FloatArray, list[int], list[int], list[_Program], list[IntArray]]
 _End = tuple[float, Hashable | None, Hashable | None, Hashable | None]  # a ratio and its (context, group, other group)
 _Ends = tuple[_End, _End, bool]  # the lower end (ratio NaN when not computed), the upper end, whether it is exact
 
 
-def _per_context(
+def _local_range(
     kernel: Kernel | Law,
     m_a: Mechanism,
     m_x: Mechanism,
@@ -293,9 +290,12 @@ def _per_context(
     e_hi: FloatArray,
     solver: dict[tuple[int, int], MinMaxRatio],
     lower_end: bool,
-) -> _PerContext:
-    """Per context x of ``keys``: the smallest and the largest ratio over the box (the smallest NaN without
-    ``lower_end``), the pair attaining the largest, the context's program, and its groups' positions in M_A's."""
+) -> _Ends | None:
+    """The ends of the range of L: the largest of the contexts'; None when no context has two groups with records.
+
+    Per context x of ``keys``: the smallest and the largest ratio over the box (the smallest NaN without
+    ``lower_end``), the pair attaining the largest, the context's program, and its groups' positions in M_A's.
+    """
     Wa = m_a.matrix
     if m_x.is_identity:  # context x mixes its own cells only: per-context programs
         # a Law's empty cells (identity M_A: compose refuses them behind a filter) are left out of their context,
@@ -315,14 +315,6 @@ def _per_context(
         favs, oths = [int(v) for v in fav_a], [int(v) for v in oth_a]
         maps = [(Wl[i], flat_lo, flat_hi) for i in range(len(keys))]
         index = [np.arange(len(m_a.inputs))] * len(keys)
-    return lows, ups, favs, oths, maps, index
-
-
-def _local_range(
-    per_context: _PerContext, keys: IntArray, m_a: Mechanism, m_x: Mechanism, lower_end: bool
-) -> _Ends | None:
-    """The ends of the range of L: the largest of the contexts'; None when no context has two groups with records."""
-    lows, ups, favs, oths, maps, index = per_context
     groups, contexts = m_a.inputs, m_x.inputs
     if np.isnan(ups).all():  # (a Law in which no context has two groups with records)
         return None

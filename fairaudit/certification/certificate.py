@@ -238,15 +238,7 @@ class Certificate:
             out["targets"] = {k: t.to_dict() for k, t in self.targets.items()}
         if self.calibration is not None or self.calibration_white_box is not None or "calibration" in self.omitted:
             out["calibration"] = self._calibration_dict()
-        inputs = certificate_inputs(
-            spec.sensitive_mechanism,
-            spec.context_mechanism,
-            spec.utility,
-            spec.utility_class,
-            spec.population,
-            spec.kernel(),
-            self._calibrated_members(),
-        )
+        inputs = certificate_inputs(spec, self._calibrated_members())
         out["inputs_sha256"] = canonical_digest(inputs)
         out["inputs"] = inputs
         return out

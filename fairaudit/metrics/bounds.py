@@ -413,26 +413,32 @@ def paper_bound(
     def solve(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, None]:
         c = fraction_up(Fraction(lipschitz) * Fraction(diameter))  # L_A·diam rounded up
         if isinstance(mechanism, RandomizedResponse):
-            return (*_paper_randomized_response(mechanism.rr, gamma, tau, c), None)
+            return (*_randomized_response_minimum(mechanism.rr, _paper_value, c, 1.0, gamma, tau), None)
         return (*paper_minimum(mechanism.matrix, gamma, tau, c), None)
 
     return _bound("paper", mechanism, (gamma, tau, lipschitz, diameter), (utility, population, law), solve)
 
 
-def _paper_randomized_response(
-    rr: RandomizedResponseParameters, gamma: float, tau: float, c: float
+def _randomized_response_minimum(
+    rr: RandomizedResponseParameters,
+    form: Callable[[float, Fraction], float],
+    c: float,
+    d: float,
+    gamma: float,
+    tau: float,
 ) -> tuple[float, float, float]:
-    """(value, ε, δ) of the paper form for k-ary randomized response, c = L_A·diam: the better of t = 1 and t = e^ε.
+    """(value, ε, δ) of the paper or the tight form (``form``: :func:`_paper_value` or :func:`_tight_value`) for
+    k-ary randomized response, in closed form, with c·d = L_A·diam (or L_A·d(a, a')): the better of t = 1 and
+    t = e^ε, t = 1 on a tie.
 
-    δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there
-    (``proofs/main_theorem.md``). Both values are rounded up, p − q from ε itself (``proofs/outward.md`` §5).
+    Paper: δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there
+    (``proofs/main_theorem.md``). Tight: every pair's h(t) = t + (L_A d + γ[p − tq]₊)/τ is convex, with kinks at e^ε
+    only. Both values are rounded up, p − q from ε itself (``proofs/outward.md`` §5).
     """
     tv = rr_total_variation_up(rr.epsilon, rr.k)
-    at_one = _paper_value(0.0, _extra(c, 1.0, tv, gamma, tau))  # t = 1: δ = p − q, the total variation
-    at_eps = _paper_value(rr.epsilon, _extra(c, 1.0, 0.0, gamma, tau))  # t = e^ε: δ = 0
-    if at_eps < at_one:
-        return at_eps, rr.epsilon, 0.0
-    return at_one, 0.0, tv
+    at_one = form(0.0, _extra(c, d, tv, gamma, tau))  # t = 1: δ = p − q, the total variation
+    at_eps = form(rr.epsilon, _extra(c, d, 0.0, gamma, tau))  # t = e^ε: δ = 0 (the tight log(e^ε + c): no overflow)
+    return (at_eps, rr.epsilon, 0.0) if at_eps < at_one else (at_one, 0.0, tv)
 
 
 def tight_bound(
@@ -497,30 +503,15 @@ def tight_bound(
         diameter = 1.0 if n > 1 else 0.0  # the discrete metric, without its n x n matrix
 
     def solve(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, tuple]:
-        if rr is not None:
-            value, eps, delta, a, b = _tight_randomized_response(rr, d, gamma, tau, lipschitz, diameter)
+        if rr is not None:  # h(t) increases in d: the binding pair has the largest d (the first, as the general route)
+            far = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
+            a, b = int(far[0]), int(far[1])
+            value, eps, delta = _randomized_response_minimum(rr, _tight_value, lipschitz, diameter, gamma, tau)
         else:
             value, eps, delta, a, b = tight_maximum(mechanism.matrix, d, gamma, tau, lipschitz)
         return value, eps, delta, (mechanism.inputs[a], mechanism.inputs[b])
 
     return _bound("tight", mechanism, (gamma, tau, lipschitz, diameter), (utility, population, law), solve)
-
-
-def _tight_randomized_response(
-    rr: RandomizedResponseParameters, d: FloatArray | None, gamma: float, tau: float, lipschitz: float, diameter: float
-) -> tuple[float, float, float, int, int]:
-    """(value, ε, δ, a, a') of the tight form for k-ary randomized response, in closed form.
-
-    Every pair: h(t) = t + (L_A d + γ[p − tq]₊)/τ, convex, kinks at e^ε only: min at t = 1 or t = e^ε, and
-    increasing in d, so the binding pair has the largest d (the first such pair, as the general route).
-    """
-    a, b = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
-    tv = rr_total_variation_up(rr.epsilon, rr.k)  # p − q rounded up; both values rounded up (outward.md §5)
-    at_one = _tight_value(0.0, _extra(lipschitz, diameter, tv, gamma, tau))
-    log_eps = _tight_value(rr.epsilon, _extra(lipschitz, diameter, 0.0, gamma, tau))  # log(e^ε + c), no overflow
-    if at_one <= log_eps:
-        return at_one, 0.0, tv, int(a), int(b)
-    return log_eps, rr.epsilon, 0.0, int(a), int(b)
 
 
 def corollary_bound(

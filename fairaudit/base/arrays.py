@@ -73,17 +73,13 @@ def check_probabilities(
     elif _valid_fast(array, skip_rows, rows_sum_to_one, source):
         return
     mask = np.ones(lead, dtype=bool) if skip_rows is None else ~np.asarray(skip_rows, dtype=bool)
-    checked = array[mask]
-    if checked.size and not np.all(np.isfinite(checked)):
-        idx = np.argwhere(~np.isfinite(array) & mask[..., None])[0]
-        raise InputError(
-            field, f"entry at {_where(idx, axis_labels, axis_names)} is not finite", float(array[tuple(idx)])
-        )
-    if checked.size and np.any(checked < 0):
-        idx = np.argwhere((array < 0) & mask[..., None])[0]
-        raise InputError(
-            field, f"entry at {_where(idx, axis_labels, axis_names)} is negative", float(array[tuple(idx)])
-        )
+    for bad, problem in ((~np.isfinite(array), "is not finite"), (array < 0, "is negative")):  # (NaN: not finite)
+        found = np.argwhere(bad & mask[..., None])
+        if found.size:
+            idx = found[0]
+            raise InputError(
+                field, f"entry at {_where(idx, axis_labels, axis_names)} {problem}", float(array[tuple(idx)])
+            )
     if rows_sum_to_one:
         sums = array.sum(axis=-1)
         bad = mask & (np.abs(sums - 1.0) > ROW_TOLERANCE)

@@ -15,6 +15,7 @@ value).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -338,15 +339,16 @@ def certify_ratio(
     >>> r.certified, r.value >= 11 / 7, r.value - 11 / 7 < 1e-15
     (True, True, True)
     """
+    failed = functools.partial(RatioBound, value=math.nan, certified=False)
     if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
-        return RatioBound(value=math.nan, certified=False, steps=0, reason="a bound of h is infinite")
+        return failed(steps=0, reason="a bound of h is infinite")
     if not math.isfinite(start):
-        return RatioBound(value=math.nan, certified=False, steps=0, reason=f"the solver's value is {start}")
+        return failed(steps=0, reason=f"the solver's value is {start}")
     clean = []
     for (_, _, kind), y in zip(_given(rows), duals, strict=True):
         y = np.asarray(y, dtype=float)
         if not np.all(np.isfinite(y)):
-            return RatioBound(value=math.nan, certified=False, steps=0, reason="the solver's dual is not finite")
+            return failed(steps=0, reason="the solver's dual is not finite")
         clean.append(np.maximum(y, 0.0) if kind == "le" else y)
     pieces = _pieces(p, q, lower, upper, rows, clean)
     lam = Fraction(up(float(start)))
@@ -355,14 +357,9 @@ def certify_ratio(
         if value <= 0:
             return RatioBound(value=fraction_up(lam), certified=True, steps=step, reason="")
         if slope >= 0:
-            return RatioBound(
-                value=math.nan,
-                certified=False,
-                steps=step,
-                reason="the dual bound does not decrease in the ratio: it proves no finite value",
-            )
+            return failed(steps=step, reason="the dual bound does not decrease in the ratio: it proves no finite value")
         lam -= value / slope
-    return RatioBound(value=math.nan, certified=False, steps=NEWTON_STEPS, reason="the Newton steps did not converge")
+    return failed(steps=NEWTON_STEPS, reason="the Newton steps did not converge")
 
 
 def point_ratio(

@@ -70,13 +70,6 @@ def _fmpq(x: Fraction) -> fmpq:
     return fmpq(x.numerator, x.denominator)
 
 
-def _float_fmpq(x: float) -> fmpq:
-    """A finite float at its exact binary value."""
-    from flint import fmpq
-
-    return fmpq(*x.as_integer_ratio())
-
-
 def _fraction(x: fmpq) -> Fraction:
     return Fraction(int(x.p), int(x.q))
 
@@ -308,7 +301,10 @@ class ExactProgram:
             if not np.all(np.isfinite(self._floats)):
                 i, j = np.argwhere(~np.isfinite(self._floats))[0].tolist()
                 raise InputError("matrix", f"must be finite (at {(i, j)})", self._floats[i, j])
-            self.flat: list[Any] = [_float_fmpq(v) if v else 0 for v in self._floats.ravel().tolist()]
+            from flint import fmpq
+
+            # each finite float at its exact binary value
+            self.flat: list[Any] = [fmpq(*v.as_integer_ratio()) if v else 0 for v in self._floats.ravel().tolist()]
         else:
             exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
             self._floats = np.array([[float(v) for v in r] for r in exact], dtype=np.float64).reshape(self.m, self.n)

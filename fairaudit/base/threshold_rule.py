@@ -273,17 +273,13 @@ def floor_max_many(
     cpj = np.take_along_axis(cp, j[..., None], -1)[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         frac = np.clip(np.where(qj > 0, (need - cqj) / np.where(qj > 0, qj, 1.0), 0.0), 0.0, 1.0)
-    filled = widen_up((n0 + cpj + frac * pj) / floor, _floor_error(shape[-1], g))
+    # the relative error bound of the knapsack value at the floor (proofs/linear_fractional.md §7)
+    filled = widen_up((n0 + cpj + frac * pj) / floor, float(up(4.0 * g + 12.0 * UNIT + 2e-15)))
     feasible = d0 + cq[..., -1] >= floor * (1 - 1e-12)
     values = np.where(low, np.where(feasible, filled, np.nan), values)
     k_out = np.where(low, j, k)
     frac_out = np.where(low, frac, 0.0)
     return values, k_out, frac_out, order
-
-
-def _floor_error(n: int, g: float) -> float:
-    """The relative error bound of the knapsack value at the floor over n cells (proofs/linear_fractional.md §7)."""
-    return float(up(4.0 * g + 12.0 * UNIT + 2e-15))
 
 
 def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: int, frac: float = 0.0) -> FloatArray:

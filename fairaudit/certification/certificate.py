@@ -238,15 +238,7 @@ class Certificate:
             out["targets"] = {k: t.to_dict() for k, t in self.targets.items()}
         if self.calibration is not None or self.calibration_white_box is not None or "calibration" in self.omitted:
             out["calibration"] = self._calibration_dict()
-        inputs = certificate_inputs(
-            spec.sensitive_mechanism,
-            spec.context_mechanism,
-            spec.utility,
-            spec.utility_class,
-            spec.population,
-            spec.kernel(),
-            self._calibrated_members(),
-        )
+        inputs = certificate_inputs(spec, self._calibrated_members())
         out["inputs_sha256"] = canonical_digest(inputs)
         out["inputs"] = inputs
         return out
@@ -288,14 +280,8 @@ class Certificate:
             if set(self.targets) - set(self.calibration_targets):
                 out["left_out"] = reason or "not calibrated"
         else:
-            out = {
-                "epsilon": None,
-                "keep_probability": None,
-                "method": None,
-                "bound": None,
-                "feasible": False,
-                "reason": reason or "no calibration",
-            }
+            out = {**dict.fromkeys(("epsilon", "keep_probability", "method", "bound")), "feasible": False}
+            out["reason"] = reason or "no calibration"
         if self.calibration_white_box is not None:
             out["white_box"] = self.calibration_white_box.to_dict()
         proofs = member_proofs(self.spec, self.calibration, self._calibrated_members())

@@ -265,16 +265,6 @@ def _check_grid(epsilons: Iterable[float]) -> FloatArray:
     return np.unique(grid)
 
 
-def _black_box_class(
-    lower: float, gamma: float, tau: float | None, lipschitz: float, metric: npt.ArrayLike | None
-) -> UtilityClass:
-    """The class of :func:`fairaudit.worstcase.black_box.black_box_bound` (the class certificate)."""
-    on = lipschitz > 0
-    return UtilityClass(
-        lower=lower, gamma=gamma, tau=tau, lipschitz=lipschitz if on else None, metric=metric if on else None
-    )
-
-
 def privacy_curve(
     spec: Spec | None = None,
     *,
@@ -465,21 +455,43 @@ def _curve(
     gamma, lower, lipschitz = float(gamma), float(lower), float(lipschitz)
     mark = None if spec_epsilon is None else float(spec_epsilon)
     grid = default_epsilons(mark) if epsilons is None else _with_point(_check_grid(epsilons), mark)
-    bounds = _Bounds(
-        gamma=gamma,
-        lower=lower,
-        tau=tau,
-        lipschitz=lipschitz,
-        metric=metric,
-        diameter=float(d.max()) if n_groups > 1 else 0.0,
-        utility=utility,
-        population=population,
-        context_mechanism=context_mechanism,
-    )
+    diameter = float(d.max()) if n_groups > 1 else 0.0
     out = {key: np.full(grid.size, np.nan) for key in _VALUES}
+
+    def fill(i: int, eps: float) -> None:
+        """The values at ε = ``eps``, written at index ``i`` of ``out``."""
+        mech = family(eps)
+        out["keep_probability"][i] = family.keep_probability(eps)
+        if tau is not None:
+            theorem = UtilityClass(tau=tau, gamma=gamma, lipschitz=lipschitz)
+            out["paper"][i] = paper_bound(mech, utility_class=replace(theorem, diameter=diameter)).value
+            out["tight"][i] = tight_bound(mech, utility_class=replace(theorem, metric=metric)).value
+        if utility is not None:
+            worst = worst_model(mech, utility, context_mechanism=context_mechanism, population=population, tau=tau)
+            out["black_box"][i] = worst.local_fairness.value
+        else:  # the class certificate, with L_A and the metric only where L_A > 0
+            on = lipschitz > 0
+            uc = UtilityClass(
+                lower=lower, gamma=gamma, tau=tau, lipschitz=lipschitz if on else None, metric=metric if on else None
+            )
+            out["black_box"][i] = black_box_bound(mech, utility_class=uc, population=population).value
+        if not (utility is not None and utility.depends_on_group):
+            out["corollary"][i] = corollary_bound(mech).value
+        if kernel is not None and utility is not None:  # (a kernel comes with a utility: checked before)
+            try:
+                law = compose(kernel, mech, context_mechanism)
+            except UnderflowError:
+                return  # the law is beyond floating point: its metrics stay NaN (not drawn)
+            except InputError as exc:
+                raise exc.under("kernel") from None
+            out["observed_local"][i] = local_fairness(law, utility, population).value
+            out["observed_global"][i] = global_fairness(law, utility, population).value
+            e = expected_utility(law, utility)
+            out["min_expected_utility"][i] = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
+
     with progress_bar(grid.size, "curve", unit="epsilon", delay=STEP_DELAY) as bar:  # (shown inside progress_shown)
         for i, eps in enumerate(grid):
-            bounds.fill(out, i, family, float(eps), kernel)
+            fill(i, float(eps))
             bar.update()
     on_family = None
     if spec is not None and mark is not None:
@@ -503,62 +515,8 @@ def _curve(
 
 
 #: The values computed at each ε: the fields of :class:`PrivacyCurve` behind the columns between ε and the verdicts
-#: (the keys of the arrays that :class:`_Bounds` fills).
+#: (the keys of the arrays that :func:`_curve` fills).
 _VALUES = tuple(column.removesuffix("_nats") for column in COLUMNS[1:9])
-
-
-@dataclass(frozen=True, kw_only=True)
-class _Bounds:
-    """The constants of a curve, and what it computes at one ε with them."""
-
-    gamma: float
-    lower: float
-    tau: float | None
-    lipschitz: float
-    metric: npt.ArrayLike | None
-    diameter: float
-    utility: Utility | None
-    population: Population | None
-    context_mechanism: Mechanism | None
-
-    def black_box(self, mech: Mechanism) -> float:
-        """The exact worst case for the utility (as ``certify`` reports it), or for the class [lower, γ]."""
-        if self.utility is not None:
-            return worst_model(
-                mech,
-                self.utility,
-                context_mechanism=self.context_mechanism,
-                population=self.population,
-                tau=self.tau,
-            ).local_fairness.value
-        uc = _black_box_class(self.lower, self.gamma, self.tau, self.lipschitz, self.metric)
-        return black_box_bound(mech, utility_class=uc, population=self.population).value
-
-    def fill(
-        self, out: dict[str, FloatArray], i: int, family: MechanismFamily, eps: float, kernel: Kernel | None
-    ) -> None:
-        """Set entry ``i`` of each array of ``out`` (keys :data:`_VALUES`) to its value at M_ε = ``family(eps)``."""
-        mech = family(eps)
-        tau, gamma, lipschitz = self.tau, self.gamma, self.lipschitz
-        out["keep_probability"][i] = family.keep_probability(eps)
-        if tau is not None:
-            theorem = UtilityClass(tau=tau, gamma=gamma, lipschitz=lipschitz)
-            out["paper"][i] = paper_bound(mech, utility_class=replace(theorem, diameter=self.diameter)).value
-            out["tight"][i] = tight_bound(mech, utility_class=replace(theorem, metric=self.metric)).value
-        out["black_box"][i] = self.black_box(mech)
-        if not (self.utility is not None and self.utility.depends_on_group):
-            out["corollary"][i] = corollary_bound(mech).value
-        if kernel is not None and self.utility is not None:  # (a kernel comes with a utility: checked before)
-            try:
-                law = compose(kernel, mech, self.context_mechanism)
-            except UnderflowError:
-                return  # the law is beyond floating point: its metrics stay NaN (not drawn)
-            except InputError as exc:
-                raise exc.under("kernel") from None
-            out["observed_local"][i] = local_fairness(law, self.utility, self.population).value
-            out["observed_global"][i] = global_fairness(law, self.utility, self.population).value
-            e = expected_utility(law, self.utility)
-            out["min_expected_utility"][i] = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
 
 
 def _same_mechanism(a: Mechanism, b: Mechanism) -> bool:

@@ -18,8 +18,8 @@ import numpy.typing as npt
 from fairaudit.base.json_values import Report, label
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Kernel, Population
-from fairaudit.laws.utilities import Utility, UtilityClass
+from fairaudit.laws.tables import Population
+from fairaudit.laws.utilities import Utility
 from fairaudit.worstcase.known_utility import worst_model
 from fairaudit.worstcase.lipschitz_proofs import lipschitz_proof
 
@@ -85,30 +85,17 @@ def mechanism_inputs(m: Mechanism) -> Report:
     return out
 
 
-def certificate_inputs(
-    sensitive: Mechanism,
-    context: Mechanism,
-    utility: Utility,
-    utility_class: UtilityClass,
-    population: Population,
-    kernel: Kernel | None,
-    calibrated: Mapping[str, Mechanism | None] | None = None,
-) -> Report:
+def certificate_inputs(spec: Spec, calibrated: Mapping[str, Mechanism | None] | None = None) -> Report:
     """The ``inputs`` section of a certificate: everything its numbers are computed from.
 
     Parameters
     ----------
-    sensitive, context : Mechanism
-        M_A and M_X.
-    utility : Utility
-        g: ``values`` of shape (n_decisions,) or (n_contexts, n_groups, n_decisions).
-    population : Population
-        P(X, A), shape (n_contexts, n_groups).
-    kernel : Kernel or None
-        The model behind the filter, shape (n_released_contexts, n_released_groups, n_decisions).
-    utility_class : UtilityClass
-        The class the bounds hold for, its fields resolved: [lower, γ], τ (or None), L_A, the metric d(a, a')
-        (shape (n_groups, n_groups); None for the discrete metric) and diam(A).
+    spec : Spec
+        The spec certified: its M_A and M_X; its utility g (``values`` of shape (n_decisions,) or (n_contexts,
+        n_groups, n_decisions)) and the class the bounds hold for, its fields resolved ([lower, γ], τ or None, L_A,
+        the metric d(a, a') of shape (n_groups, n_groups) or None for the discrete metric, and diam(A)); its
+        population P(X, A), shape (n_contexts, n_groups); and its model behind the filter, if any, shape
+        (n_released_contexts, n_released_groups, n_decisions).
     calibrated : mapping, optional
         The family's member at each calibrated ε, ``{"black_box": M or None, "white_box": M or None}``, and just
         above it (``"black_box_above"``, ``"white_box_above"``: the member at ε + 1e-9·max(1, ε), which misses the
@@ -122,18 +109,16 @@ def certificate_inputs(
         its labels and ``probabilities``) and, with a calibration, ``calibration`` (each member by
         :func:`mechanism_inputs`, or None).
     """
+    c, population, kernel = spec.utility_class, spec.population, spec.kernel()
     out: Report = {
-        "sensitive_mechanism": mechanism_inputs(sensitive),
-        "context_mechanism": mechanism_inputs(context),
+        "sensitive_mechanism": mechanism_inputs(spec.sensitive_mechanism),
+        "context_mechanism": mechanism_inputs(spec.context_mechanism),
         "utility": {
-            "decisions": [label(v) for v in utility.decisions],
-            "values": json_array(utility.values),
-            "lower": _real(utility_class.lower),
-            "gamma": _real(utility_class.gamma),
-            "tau": _real(utility_class.tau),
-            "lipschitz": _real(utility_class.lipschitz),
-            "metric": None if utility_class.metric is None else json_array(utility_class.metric),
-            "diameter": _real(utility_class.diameter),
+            "decisions": [label(v) for v in spec.utility.decisions],
+            "values": json_array(spec.utility.values),
+            **{name: _real(getattr(c, name)) for name in ("lower", "gamma", "tau", "lipschitz")},
+            "metric": None if c.metric is None else json_array(c.metric),
+            "diameter": _real(c.diameter),
         },
         "population": {
             "contexts": [label(v) for v in population.contexts],

@@ -330,10 +330,8 @@ class RandomizedResponse(Mechanism):
     def __init__(self, labels: tuple | range, epsilon: float, name: str) -> None:
         k = len(labels)
         p, q, log_p, log_q = _rr_probabilities(epsilon, k)
-        object.__setattr__(self, "inputs", labels)
-        object.__setattr__(self, "outputs", labels)
-        object.__setattr__(self, "name", name)
-        object.__setattr__(self, "rr", RandomizedResponseParameters(k, epsilon if k > 1 else 0.0, p, q, log_p, log_q))
+        rr = RandomizedResponseParameters(k, epsilon if k > 1 else 0.0, p, q, log_p, log_q)
+        vars(self).update(inputs=labels, outputs=labels, name=name, rr=rr)  # (frozen: as object.__setattr__ would)
 
     @functools.cached_property
     def matrix(self) -> FloatArray:

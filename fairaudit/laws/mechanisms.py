@@ -297,10 +297,7 @@ class Mechanism:
         check_probabilities(array, f"mechanism '{name}'", (inputs, outputs), ("input", "output"))
         array = array.copy()
         array.setflags(write=False)
-        object.__setattr__(self, "matrix", array)
-        object.__setattr__(self, "inputs", inputs)
-        object.__setattr__(self, "outputs", outputs)
-        object.__setattr__(self, "name", name)
+        vars(self).update(matrix=array, inputs=inputs, outputs=outputs, name=name)  # (frozen: as object.__setattr__)
 
     def __repr__(self) -> str:
         return f"Mechanism({self.name!r}, {len(self.inputs)} inputs -> {len(self.outputs)} outputs, epsilon={self.epsilon:.6g})"
@@ -556,10 +553,7 @@ class _Identity(Mechanism):
     """
 
     def __init__(self, labels: tuple, name: str) -> None:
-        object.__setattr__(self, "inputs", labels)
-        object.__setattr__(self, "outputs", labels)
-        object.__setattr__(self, "name", name)
-        object.__setattr__(self, "is_identity", True)
+        vars(self).update(inputs=labels, outputs=labels, name=name, is_identity=True)  # (frozen; is_identity cached)
 
     @functools.cached_property
     def matrix(self) -> FloatArray:

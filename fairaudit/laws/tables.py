@@ -164,10 +164,7 @@ class Population(_ContextsAndGroups):
         if abs(total - 1.0) > ROW_TOLERANCE:
             raise InputError("population", f"entries sum to {total:.12g}, not 1")
         array.setflags(write=False)
-        object.__setattr__(self, "probabilities", array)
-        object.__setattr__(self, "_labels", labels)
-        object.__setattr__(self, "source", source)
-        object.__setattr__(self, "records", records)
+        vars(self).update(probabilities=array, _labels=labels, source=source, records=records)  # (frozen)
 
     def __repr__(self) -> str:
         return (
@@ -329,14 +326,10 @@ class _DecisionTable(_ContextsAndGroups):
         else:
             observed = np.ones(shape[:2], dtype=bool)  # rows are checked finite: no NaN without counts
         observed.setflags(write=False)
-        object.__setattr__(self, "_observed", observed)
-        object.__setattr__(self, "complete", bool(observed.all()))
         if array.flags.writeable:
             array.setflags(write=False)
-        object.__setattr__(self, "probabilities", array)
-        object.__setattr__(self, "_labels", labels)
-        object.__setattr__(self, "counts", counts)
-        object.__setattr__(self, "name", name)
+        vars(self).update(_observed=observed, complete=bool(observed.all()))  # (frozen: as object.__setattr__ would)
+        vars(self).update(probabilities=array, _labels=labels, counts=counts, name=name)
 
     @property
     def decisions(self) -> tuple:

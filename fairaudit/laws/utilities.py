@@ -259,11 +259,9 @@ class Utility:
             )
         array = array.copy()
         array.setflags(write=False)
-        object.__setattr__(self, "values", array)
-        object.__setattr__(self, "decisions", decisions)
-        object.__setattr__(self, "contexts", contexts if array.ndim == 3 else None)
-        object.__setattr__(self, "groups", groups if array.ndim == 3 else None)
-        object.__setattr__(self, "name", name)
+        full = array.ndim == 3
+        vars(self).update(values=array, decisions=decisions)  # (frozen: as object.__setattr__ would)
+        vars(self).update(contexts=contexts if full else None, groups=groups if full else None, name=name)
 
     @staticmethod
     def _where(

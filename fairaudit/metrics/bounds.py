@@ -43,7 +43,7 @@ Proofs: ``proofs/main_theorem.md`` (both forms, the profile minimisation) and
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 from fractions import Fraction
 
@@ -275,43 +275,47 @@ def _without_tau(
     )
 
 
-def _tau_free_constants(gamma: float, lipschitz: float, diameter: float) -> tuple[float, float, float]:
-    return nonnegative(gamma, "gamma"), nonnegative(lipschitz, "lipschitz"), nonnegative(diameter, "diameter")
-
-
-def _tau_free(
+def _bound(
     form: str,
     mechanism: Mechanism,
-    gamma: float,
-    lipschitz: float,
-    diameter: float,
-    utility: Utility | None,
-    population: Population | None,
-    law: Law | None,
+    constants: tuple[float, float | None, float, float],
+    checked_on: tuple[Utility | None, Population | None, Law | None],
+    solve: Callable[[float, float, float, float], tuple[float, float, float, tuple[Hashable, Hashable] | None]],
 ) -> Bound:
-    """The paper or tight bound without τ: ε(M), when the extra term is 0 (else :func:`_without_tau` raises).
+    """The paper or tight :class:`Bound` of constants (γ, τ, L_A, diam), checked, with its assumptions.
 
-    Both forms are ε(M) then (0 with one input); the tight form also names a pair attaining it.
+    Without τ it is ε(M), when the extra term is 0 (else :func:`_without_tau` raises): both forms are ε(M) then
+    (0 with one input), and the tight form also names a pair attaining it. With τ, ``solve(γ, τ, L_A, diam)`` gives
+    (value, ε, δ, the binding pair or None) for two inputs or more; one input gives 0.
     """
-    gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
-    free = _without_tau(form, mechanism, lipschitz, diameter, utility)
-    assumptions = assumptions_for(mechanism, None, gamma, utility, population, law)
+    gamma, tau, lipschitz, diameter = constants
+    utility, population, law = checked_on
     n = len(mechanism.inputs)
-    eps = mechanism.epsilon if n > 1 else 0.0  # the tight form: max over pairs of ε_aa', where δ_aa' = 0
-    pair = _epsilon_pair(mechanism) if form == "tight" and n > 1 else (None, None)
+    if tau is None:
+        gamma, lipschitz = nonnegative(gamma, "gamma"), nonnegative(lipschitz, "lipschitz")
+        diameter = nonnegative(diameter, "diameter")
+        free = _without_tau(form, mechanism, lipschitz, diameter, utility)
+        assumptions = (*assumptions_for(mechanism, None, gamma, utility, population, law), free)
+        value = eps = mechanism.epsilon if n > 1 else 0.0  # the tight form: max over pairs of ε_aa', where δ_aa' = 0
+        delta, tau = 0.0, math.nan
+        pair = _epsilon_pair(mechanism) if form == "tight" and n > 1 else None
+    else:
+        gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+        assumptions = assumptions_for(mechanism, tau, gamma, utility, population, law)
+        value, eps, delta, pair = (0.0, 0.0, 0.0, None) if n < 2 else solve(gamma, tau, lipschitz, diameter)
     return Bound(
         form=form,
-        value=eps,
+        value=value,
         epsilon=eps,
-        delta=0.0,
-        group=pair[0],
-        other_group=pair[1],
+        delta=delta,
+        group=None if pair is None else pair[0],
+        other_group=None if pair is None else pair[1],
         gamma=gamma,
-        tau=math.nan,
+        tau=tau,
         lipschitz=lipschitz,
         diameter=diameter,
         mechanism=mechanism,
-        assumptions=(*assumptions, free),
+        assumptions=assumptions,
     )
 
 
@@ -405,45 +409,36 @@ def paper_bound(
     if diameter is None:
         n = len(mechanism.inputs)
         diameter = 1.0 if metric is None else float(check_metric(metric, n).max()) if n > 1 else 0.0
-    if tau is None:
-        return _tau_free("paper", mechanism, gamma, lipschitz, diameter, utility, population, law)
-    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    assumptions = assumptions_for(mechanism, tau, gamma, utility, population, law)
-    c = fraction_up(Fraction(lipschitz) * Fraction(diameter))  # L_A·diam rounded up
-    if len(mechanism.inputs) < 2:
-        value, eps, delta = 0.0, 0.0, 0.0
-    elif isinstance(mechanism, RandomizedResponse):
-        value, eps, delta = _paper_randomized_response(mechanism.rr, gamma, tau, c)
-    else:
-        value, eps, delta = paper_minimum(mechanism.matrix, gamma, tau, c)
-    return Bound(
-        form="paper",
-        value=value,
-        epsilon=eps,
-        delta=delta,
-        gamma=gamma,
-        tau=tau,
-        lipschitz=lipschitz,
-        diameter=diameter,
-        mechanism=mechanism,
-        assumptions=assumptions,
-    )
+
+    def solve(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, None]:
+        c = fraction_up(Fraction(lipschitz) * Fraction(diameter))  # L_A·diam rounded up
+        if isinstance(mechanism, RandomizedResponse):
+            return (*_randomized_response_minimum(mechanism.rr, _paper_value, c, 1.0, gamma, tau), None)
+        return (*paper_minimum(mechanism.matrix, gamma, tau, c), None)
+
+    return _bound("paper", mechanism, (gamma, tau, lipschitz, diameter), (utility, population, law), solve)
 
 
-def _paper_randomized_response(
-    rr: RandomizedResponseParameters, gamma: float, tau: float, c: float
+def _randomized_response_minimum(
+    rr: RandomizedResponseParameters,
+    form: Callable[[float, Fraction], float],
+    c: float,
+    d: float,
+    gamma: float,
+    tau: float,
 ) -> tuple[float, float, float]:
-    """(value, ε, δ) of the paper form for k-ary randomized response, c = L_A·diam: the better of t = 1 and t = e^ε.
+    """(value, ε, δ) of the paper or the tight form (``form``: :func:`_paper_value` or :func:`_tight_value`) for
+    k-ary randomized response, in closed form, with c·d = L_A·diam (or L_A·d(a, a')): the better of t = 1 and
+    t = e^ε, t = 1 on a tie.
 
-    δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there
-    (``proofs/main_theorem.md``). Both values are rounded up, p − q from ε itself (``proofs/outward.md`` §5).
+    Paper: δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there
+    (``proofs/main_theorem.md``). Tight: every pair's h(t) = t + (L_A d + γ[p − tq]₊)/τ is convex, with kinks at e^ε
+    only. Both values are rounded up, p − q from ε itself (``proofs/outward.md`` §5).
     """
     tv = rr_total_variation_up(rr.epsilon, rr.k)
-    at_one = _paper_value(0.0, _extra(c, 1.0, tv, gamma, tau))  # t = 1: δ = p − q, the total variation
-    at_eps = _paper_value(rr.epsilon, _extra(c, 1.0, 0.0, gamma, tau))  # t = e^ε: δ = 0
-    if at_eps < at_one:
-        return at_eps, rr.epsilon, 0.0
-    return at_one, 0.0, tv
+    at_one = form(0.0, _extra(c, d, tv, gamma, tau))  # t = 1: δ = p − q, the total variation
+    at_eps = form(rr.epsilon, _extra(c, d, 0.0, gamma, tau))  # t = e^ε: δ = 0 (the tight log(e^ε + c): no overflow)
+    return (at_eps, rr.epsilon, 0.0) if at_eps < at_one else (at_one, 0.0, tv)
 
 
 def tight_bound(
@@ -506,50 +501,17 @@ def tight_bound(
         diameter = float(d.max()) if n > 1 else 0.0
     else:
         diameter = 1.0 if n > 1 else 0.0  # the discrete metric, without its n x n matrix
-    if tau is None:
-        return _tau_free("tight", mechanism, gamma, lipschitz, diameter, utility, population, law)
-    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    assumptions = assumptions_for(mechanism, tau, gamma, utility, population, law)
-    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None)
-    if n < 2:
-        value, eps, delta = 0.0, 0.0, 0.0
-    else:
-        if rr is not None:
-            value, eps, delta, a, b = _tight_randomized_response(rr, d, gamma, tau, lipschitz, diameter)
+
+    def solve(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, tuple]:
+        if rr is not None:  # h(t) increases in d: the binding pair has the largest d (the first, as the general route)
+            far = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
+            a, b = int(far[0]), int(far[1])
+            value, eps, delta = _randomized_response_minimum(rr, _tight_value, lipschitz, diameter, gamma, tau)
         else:
             value, eps, delta, a, b = tight_maximum(mechanism.matrix, d, gamma, tau, lipschitz)
-        pair = (mechanism.inputs[a], mechanism.inputs[b])
-    return Bound(
-        form="tight",
-        value=value,
-        epsilon=eps,
-        delta=delta,
-        group=pair[0],
-        other_group=pair[1],
-        gamma=gamma,
-        tau=tau,
-        lipschitz=lipschitz,
-        diameter=diameter,
-        mechanism=mechanism,
-        assumptions=assumptions,
-    )
+        return value, eps, delta, (mechanism.inputs[a], mechanism.inputs[b])
 
-
-def _tight_randomized_response(
-    rr: RandomizedResponseParameters, d: FloatArray | None, gamma: float, tau: float, lipschitz: float, diameter: float
-) -> tuple[float, float, float, int, int]:
-    """(value, ε, δ, a, a') of the tight form for k-ary randomized response, in closed form.
-
-    Every pair: h(t) = t + (L_A d + γ[p − tq]₊)/τ, convex, kinks at e^ε only: min at t = 1 or t = e^ε, and
-    increasing in d, so the binding pair has the largest d (the first such pair, as the general route).
-    """
-    a, b = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
-    tv = rr_total_variation_up(rr.epsilon, rr.k)  # p − q rounded up; both values rounded up (outward.md §5)
-    at_one = _tight_value(0.0, _extra(lipschitz, diameter, tv, gamma, tau))
-    log_eps = _tight_value(rr.epsilon, _extra(lipschitz, diameter, 0.0, gamma, tau))  # log(e^ε + c), no overflow
-    if at_one <= log_eps:
-        return at_one, 0.0, tv, int(a), int(b)
-    return log_eps, rr.epsilon, 0.0, int(a), int(b)
+    return _bound("tight", mechanism, (gamma, tau, lipschitz, diameter), (utility, population, law), solve)
 
 
 def corollary_bound(

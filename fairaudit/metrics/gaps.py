@@ -123,6 +123,5 @@ def _range(e: FloatArray, groups: tuple, contexts: tuple, kind: str, name: str) 
     i = first_max(spread)
     if i is None:
         return UtilityGap(kind, float("nan"), None, None, None, name)
-    row = np.where(np.isnan(e[i]), np.nan, e[i])
-    hi, lo = int(np.nanargmax(row)), int(np.nanargmin(row))
+    hi, lo = int(np.nanargmax(e[i])), int(np.nanargmin(e[i]))
     return UtilityGap(kind, float(spread[i]), contexts[i], groups[hi], groups[lo], name)

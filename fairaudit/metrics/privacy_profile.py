@@ -217,6 +217,33 @@ def tight_maximum(
         if i.size:
             offer(i + rows.start, j + cols.start)
 
+    def certified(pa: IntArray, pb: IntArray, obj: FloatArray, ts: FloatArray) -> float:
+        """The tight value max over pairs of ln(objective at the pair's t), rounded up (``proofs/outward.md`` §5).
+
+        Each float objective t + (L_A d + γδ)/τ is within e = (m + 4)·2u·(1 + t)·γ/τ + 8u·obj of the exact one at
+        the same float t (δ from prefix sums of m terms); the pairs whose objective plus e reaches the largest
+        objective minus e are evaluated again exactly (up to ``EXACT_PAIRS``; beyond, the widened maximum).
+        """
+        if not np.all(np.isfinite(obj)):
+            return math.inf
+        m = matrix.shape[1]
+        u = 2.0**-53
+        with np.errstate(over="ignore"):
+            err = (m + 4) * 2 * u * (1.0 + ts) * (gamma / tau) + 8 * u * obj
+        err = up(up(err) * (1 + 8 * u))
+        near = np.flatnonzero(obj + err >= np.max(obj - err))
+        near = near[np.unique(pa[near] * n + pb[near], return_index=True)[1]]  # (a pair offered twice)
+        if near.size > EXACT_PAIRS:
+            return log_up(float(widen_up(np.max(obj + err), 4 * u)))
+        g, t_, lip, dists = Fraction(gamma), Fraction(tau), Fraction(lipschitz), dist(pa, pb)
+        best = Fraction(0)
+        for i in near.tolist():
+            ra, rb, fixed = matrix[pa[i]], matrix[pb[i]], lip * Fraction(float(dists[i]))
+            best = max(
+                best, min(t + (fixed + g * exact_hockey_stick(ra, rb, t)) / t_ for t in _exact_ts(ra, rb, ts[i]))
+            )
+        return log_up(best)
+
     a, b = pair_candidates(matrix)
     if d is not None and lipschitz > 0:  # the pair of largest distance, the first row-major
         far = np.unravel_index(int(np.argmax(np.where(np.eye(n, dtype=bool), -np.inf, d))), d.shape)
@@ -227,44 +254,7 @@ def tight_maximum(
     pa, pb, obj, ts, ds = (np.concatenate([x[i] for x in parts]) for i in range(5))
     i = first_max(obj, order=pa * n + pb)
     assert i is not None  # the pass visits every pair: obj holds no NaN
-    value = _tight_certified(matrix, pa, pb, obj, ts, dist(pa, pb), gamma, tau, lipschitz)
-    return value, float(np.log(ts[i])), float(ds[i]), int(pa[i]), int(pb[i])
-
-
-def _tight_certified(
-    matrix: FloatArray,
-    pa: IntArray,
-    pb: IntArray,
-    obj: FloatArray,
-    ts: FloatArray,
-    dist: FloatArray,
-    gamma: float,
-    tau: float,
-    lipschitz: float,
-) -> float:
-    """The tight value max over pairs of ln(objective at the pair's t), rounded up (``proofs/outward.md`` §5).
-
-    Each float objective t + (L_A d + γδ)/τ is within e = (m + 4)·2u·(1 + t)·γ/τ + 8u·obj of the exact one at
-    the same float t (δ from prefix sums of m terms); the pairs whose objective plus e reaches the largest
-    objective minus e are evaluated again exactly (up to ``EXACT_PAIRS``; beyond, the widened maximum).
-    """
-    if not np.all(np.isfinite(obj)):
-        return math.inf
-    m = matrix.shape[1]
-    u = 2.0**-53
-    with np.errstate(over="ignore"):
-        err = (m + 4) * 2 * u * (1.0 + ts) * (gamma / tau) + 8 * u * obj
-    err = up(up(err) * (1 + 8 * u))
-    near = np.flatnonzero(obj + err >= np.max(obj - err))
-    near = near[np.unique(pa[near] * matrix.shape[0] + pb[near], return_index=True)[1]]  # (a pair offered twice)
-    if near.size > EXACT_PAIRS:
-        return log_up(float(widen_up(np.max(obj + err), 4 * u)))
-    g, t_, lip = Fraction(gamma), Fraction(tau), Fraction(lipschitz)
-    best = Fraction(0)
-    for i in near.tolist():
-        ra, rb, fixed = matrix[pa[i]], matrix[pb[i]], lip * Fraction(float(dist[i]))
-        best = max(best, min(t + (fixed + g * exact_hockey_stick(ra, rb, t)) / t_ for t in _exact_ts(ra, rb, ts[i])))
-    return log_up(best)
+    return certified(pa, pb, obj, ts), float(np.log(ts[i])), float(ds[i]), int(pa[i]), int(pb[i])
 
 
 def _exact_ts(ra: FloatArray, rb: FloatArray, t: float) -> set[Fraction]:

@@ -231,7 +231,6 @@ def fairness_range(
     point = not k[..., d].any()
     solver: dict[tuple[int, int], MinMaxRatio] = {}
     keys = np.flatnonzero(pop.p_context > 0)
-    per_context = _per_context(kernel, m_a, m_x, keys, e_lo, e_hi, solver, lower_end)
     nan = FairnessRange(
         kind="local", value=local.value, lower=math.nan, upper=math.nan, exact=True, lower_context=None,
         upper_context=None, lower_group=None, lower_other_group=None, upper_group=None, upper_other_group=None,
@@ -239,9 +238,10 @@ def fairness_range(
     global_nan = FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
     local_range, global_range = nan, global_nan
     if len(m_a.inputs) >= 2 and len(keys) > 0:
-        ends = (attained, point, lower_end)
-        local_range = _local_range(local.value, per_context, keys, m_a, m_x, *ends) or nan
-        global_range = _global_range(glob.value, pop, m_a, m_x, e_lo, e_hi, solver, *ends) or global_nan
+        found = _local_range(kernel, m_a, m_x, keys, e_lo, e_hi, solver, lower_end)
+        local_range = nan if found is None else _range("local", local.value, found, attained, point)
+        found = _global_range(pop, m_a, m_x, e_lo, e_hi, solver, lower_end)
+        global_range = global_nan if found is None else _range("global", glob.value, found, attained, point)
     return UtilityRange(
         kernel=kernel, utility=utility, decision=kernel.decisions[d], low=lo_g, high=hi_g, sensitive_mechanism=m_a,
         context_mechanism=m_x, population=pop, kernel_lower=e_lo, kernel_upper=e_hi, local_fairness=local_range,
@@ -277,11 +277,11 @@ def _unknown_decision(
     return g, decision % n_d, lo_g, hi_g
 
 
-_Program = tuple[FloatArray, FloatArray, FloatArray]  # the mixing weights W and the box [lo, hi] of kernel cells
-_PerContext = tuple[FloatArray, FloatArray, list[int], list[int], list[_Program], list[IntArray]]
+_End = tuple[float, Hashable | None, Hashable | None, Hashable | None]  # a ratio and its (context, group, other group)
+_Ends = tuple[_End, _End, bool]  # the lower end (ratio NaN when not computed), the upper end, whether it is exact
 
 
-def _per_context(
+def _local_range(
     kernel: Kernel | Law,
     m_a: Mechanism,
     m_x: Mechanism,
@@ -290,9 +290,12 @@ def _per_context(
     e_hi: FloatArray,
     solver: dict[tuple[int, int], MinMaxRatio],
     lower_end: bool,
-) -> _PerContext:
-    """Per context x of ``keys``: the smallest and the largest ratio over the box (the smallest NaN without
-    ``lower_end``), the pair attaining the largest, the context's program, and its groups' positions in M_A's."""
+) -> _Ends | None:
+    """The ends of the range of L: the largest of the contexts'; None when no context has two groups with records.
+
+    Per context x of ``keys``: the smallest and the largest ratio over the box (the smallest NaN without
+    ``lower_end``), the pair attaining the largest, the context's program, and its groups' positions in M_A's.
+    """
     Wa = m_a.matrix
     if m_x.is_identity:  # context x mixes its own cells only: per-context programs
         # a Law's empty cells (identity M_A: compose refuses them behind a filter) are left out of their context,
@@ -312,49 +315,28 @@ def _per_context(
         favs, oths = [int(v) for v in fav_a], [int(v) for v in oth_a]
         maps = [(Wl[i], flat_lo, flat_hi) for i in range(len(keys))]
         index = [np.arange(len(m_a.inputs))] * len(keys)
-    return lows, ups, favs, oths, maps, index
-
-
-def _local_range(
-    value: float,
-    per_context: _PerContext,
-    keys: IntArray,
-    m_a: Mechanism,
-    m_x: Mechanism,
-    attained: bool,
-    point: bool,
-    lower_end: bool,
-) -> FairnessRange | None:
-    """The range of L: the largest of the contexts' ends; None when no context has two groups with records."""
-    lows, ups, favs, oths, maps, index = per_context
     groups, contexts = m_a.inputs, m_x.inputs
     if np.isnan(ups).all():  # (a Law in which no context has two groups with records)
         return None
     iu = int(np.nanargmax(ups))
-    low_end: tuple[float, Hashable | None, Hashable | None, Hashable | None] = (math.nan, None, None, None)
+    low_end: _End = (math.nan, None, None, None)
     if lower_end:
         il = int(np.nanargmax(lows))
         lg, lo_other = _lower_pair(*maps[il])
         low_end = (float(lows[il]), contexts[keys[il]], groups[index[il][lg]], groups[index[il][lo_other]])
-    return _range(
-        "local", value, low_end, float(ups[iu]), attained, point, m_x.is_identity,
-        (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
-    )  # fmt: skip
+    return low_end, (float(ups[iu]), contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]), m_x.is_identity
 
 
 def _global_range(
-    value: float,
     pop: Population,
     m_a: Mechanism,
     m_x: Mechanism,
     e_lo: FloatArray,
     e_hi: FloatArray,
     solver: dict[tuple[int, int], MinMaxRatio],
-    attained: bool,
-    point: bool,
     lower_end: bool,
-) -> FairnessRange | None:
-    """The range of L̄: each group mixes the kernel cells by P(x | a); None with fewer than two groups of P(a) > 0."""
+) -> _Ends | None:
+    """The ends of the range of L̄: each group mixes the kernel cells by P(x | a); None with under two groups of P(a) > 0."""
     groups = m_a.inputs
     w = pop.context_given_group()
     w = np.where(np.isnan(w), 0.0, w)
@@ -366,33 +348,22 @@ def _global_range(
     if len(gi) < 2:
         return None
     gl, gu, gf, go = mixed_ratio(Wg[None], flat_lo, flat_hi, solver, lower_end)
-    low_end: tuple[float, Hashable | None, Hashable | None, Hashable | None] = (math.nan, None, None, None)
+    low_end: _End = (math.nan, None, None, None)
     if lower_end:
         a, b = _lower_pair(Wg, flat_lo, flat_hi)
         low_end = (float(gl[0]), None, groups[gi[a]], groups[gi[b]])
-    return _range(
-        "global", value, low_end, float(gu[0]), attained, point, True,
-        (None, groups[gi[int(gf[0])]], groups[gi[int(go[0])]]),
-    )  # fmt: skip
+    return low_end, (float(gu[0]), None, groups[gi[int(gf[0])]], groups[gi[int(go[0])]]), True
 
 
-def _range(
-    kind: str,
-    value: float,
-    lower_end: tuple[float, Hashable | None, Hashable | None, Hashable | None],
-    upper_ratio: float,
-    attained: bool,
-    point: bool,
-    exact: bool,
-    upper_cells: tuple[Hashable | None, Hashable, Hashable],
-) -> FairnessRange:
+def _range(kind: str, value: float, ends: _Ends, attained: bool, point: bool) -> FairnessRange:
     """Ratios to nats; the stated value, when it is one assignment of the box, lies in the range (rounding).
 
-    ``lower_end``: the lower end's ratio and its (context, group, other group); ratio NaN when not computed.
+    ``ends``: the lower and the upper end, each a ratio and its (context, group, other group) (the lower ratio NaN
+    when not computed), and whether the upper end is exact.
     ``point``: the box is one law (no mass on the decision), so both ends are the stated value itself, as the
     metrics compute it, not the same number by another sum.
     """
-    lower_ratio, *lower_cells = lower_end
+    (lower_ratio, *lower_cells), (upper_ratio, *upper_cells), exact = ends
     lower, upper = _log(lower_ratio), _log(upper_ratio)
     if point and not math.isnan(value):
         lower, upper = (lower if math.isnan(lower_ratio) else value), value

@@ -18,7 +18,12 @@ the model's kernel on released groups, the counts are of the kernel, and the
 certificate is for the filtered law Q[x, a] = Σ_ã M[a, ã] K[x, ã] (whose true
 L is smaller than |disparity|).
 
-The simulation: power at n is the fraction of ``datasets`` simulated count
+The exact power: for L without a filter by a frequentist method (:func:`exact_route`), a table's certificate
+depends on each context's smallest and largest count alone, whose law is that of order statistics of independent
+binomials: the power at n is computed from it (:func:`_order_power`), to within 1e-12, and no table is simulated
+(``datasets`` is unused, None in the result). A plan of 10^6 cells takes about a second.
+
+The simulation, for L̄, behind a filter and for ``"bayes"``: power at n is the fraction of ``datasets`` simulated count
 tables whose certificate (the upper end of the simultaneous interval on L, or
 on L̄ with ``kind="global"``, from :func:`fairaudit.statistics.intervals.fairness_intervals`
 with a uniform independent population) is ≤ ``target``. The tables at n are
@@ -34,9 +39,9 @@ plan between two chunks.
 
 The search: n = 1, 2, 4, ... until the power reaches ``power`` (or ``max_n``),
 then bisection over the integers between the last failing and the first
-passing n. The simulated power is monotone in n only approximately (Monte
-Carlo noise, discreteness of the counts), so the result is the smallest n
-*found*, and it is verified: the returned n has simulated power ≥ ``power``
+passing n. The power is monotone in n only approximately (discreteness of the counts, and Monte
+Carlo noise where simulated), so the result is the smallest n
+*found*, and it is verified: the returned n has power ≥ ``power``
 and n − 1 (always evaluated, unless n = 1) has less; a smaller n elsewhere
 could pass by chance.
 """
@@ -57,7 +62,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
 from fairaudit.base.progress import STEP_DELAY, progress_bar
 from fairaudit.base.resources import MemoryLimit, check_memory, memory_limit
-from fairaudit.metrics.box_extremes import disjoint_ratio
+from fairaudit.metrics.box_extremes import disjoint_ratio, div
 from fairaudit.statistics.confidence_sets import category_bounds, linear_extremes
 from fairaudit.statistics.intervals import METHODS, IntervalOptions, fairness_intervals
 
@@ -88,18 +93,19 @@ class SamplePlan:
     Attributes
     ----------
     target, groups, contexts, base_rate, disparity, confidence, method, power, epsilon, kind, datasets, seed, max_n
-        The inputs (``datasets`` resolved from its default).
+        The inputs (``datasets`` resolved from its default; None where the power is exact and nothing is simulated:
+        L without a filter by a frequentist method, :func:`exact_route`).
     n_per_cell : int or None
         The smallest n (queries per cell, released cells behind a filter)
-        found with simulated power ≥ ``power``; None when infeasible.
+        found with power ≥ ``power``; None when infeasible.
     n_total : int or None
         n_per_cell × contexts × groups.
     achieved_power : float or None
-        The simulated power at ``n_per_cell`` (at ``max_n`` when the target is
+        The power at ``n_per_cell``, exact or simulated (at ``max_n`` when the target is
         not reached there; None when the target is below the true value).
     expected_upper : float or None
-        The median over the simulated tables of the certificate's upper end
-        at that n, nats (``inf`` possible).
+        The median of the certificate's upper end at that n (of its exact distribution, or over the simulated
+        tables), nats (``inf`` possible).
     true_value : float
         L (= L̄ here) of the assumed law, behind the filter when ``epsilon``
         is given, nats.
@@ -117,7 +123,7 @@ class SamplePlan:
     power: float
     epsilon: float | None
     kind: str
-    datasets: int
+    datasets: int | None
     seed: int
     max_n: int
     n_per_cell: int | None
@@ -257,7 +263,8 @@ def plan(
         Certify L or L̄.
     datasets : int, optional
         Simulated tables per n: default 200, and 40 for ``"bayes"``, which computes 4000 posterior draws per table
-        (about 10 ms each) and is not vectorised over tables; the frequentist methods are.
+        (about 10 ms each) and is not vectorised over tables; the frequentist methods are. Unused where the power is
+        exact (L without a filter by a frequentist method).
     seed : int
         Seed of the simulation (and of the Bayesian posterior draws).
     max_n : int
@@ -286,17 +293,18 @@ def plan(
     Notes
     -----
     Source: the certificate is the upper end of :func:`fairaudit.statistics.intervals.fairness_intervals`
-    (``proofs/intervals.md``); power is estimated by simulation, so the plan is exact only up
-    to Monte Carlo error (``datasets`` tables per n, seeded).
+    (``proofs/intervals.md``). For L without a filter by a frequentist method the power is exact, from the order
+    statistics of the counts (module docstring); otherwise it is estimated by simulation, so the plan is exact only
+    up to Monte Carlo error (``datasets`` tables per n, seeded).
 
     Examples
     --------
     Two groups of a fair model (E[g] = 0.5): queries per group to certify
     L ≤ 0.5 nats at 95% with power 80%.
 
-    >>> p = plan(0.5, datasets=100)
-    >>> p.n_per_cell, p.n_total, p.achieved_power >= 0.8
-    (168, 336, True)
+    >>> p = plan(0.5)
+    >>> p.n_per_cell, p.n_total, p.achieved_power >= 0.8, p.datasets  # (exact: no table simulated)
+    (171, 342, True, None)
     >>> round(p.expected_upper, 3) <= 0.5
     True
     >>> plan(0.1, disparity=0.2).reason
@@ -403,6 +411,82 @@ def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float
     return rates, mechanism, float(np.log(filtered.max(-1) / filtered.min(-1)).max())
 
 
+TAIL = 1e-18
+"""The probability each group's count may have outside the window of counts the exact power reads (binomial
+quantiles at ``TAIL`` and 1 − ``TAIL``): what it leaves out is at most 2 · ``TAIL`` · groups · contexts, below
+1e-12 for every plan ``plan`` takes (10^3 groups x 10^5 contexts)."""
+
+
+def exact_route(inputs: _Inputs) -> bool:
+    """Whether the power is computed exactly (:func:`_order_power`): L (``kind="local"``), no filter, and a
+    frequentist method (``"clopper-pearson"``, or ``"multinomial"``, the same for a binary decision)."""
+    return inputs["kind"] == "local" and inputs["epsilon"] is None and inputs["method"] != "bayes"
+
+
+def _order_power(n: int, inputs: _Inputs, rates: FloatArray) -> tuple[float, float]:
+    """The power at ``n`` and the median of the certificate's upper end, from the order statistics of the counts.
+
+    Without a filter a cell's interval on E[g] depends on its count k alone, [lo(k), hi(k)], both non-decreasing in
+    k, so the upper end on L of a table is max over x of ln(hi(max_a k_xa) / lo(min_a k_xa)) (the largest hi over
+    the smallest lo of another group: :func:`~fairaudit.metrics.box_extremes.disjoint_ratio`), and it is at most t in
+    context x exactly when max_a k_xa ≤ M_t(min_a k_xa), M_t(m) the largest count with ln(hi(M)/lo(m)) ≤ t. The
+    counts are independent binomials, so with F_a(i, j) = P(i ≤ k_xa ≤ j)
+
+        P(upper end ≤ t in context x) = Σ_m [Π_a F_a(m, M_t(m)) − Π_a F_a(m + 1, M_t(m))]
+
+    (the minimum is m and the maximum at most M_t(m)), and the contexts, alike and independent, multiply: the power
+    is its X-th power at t = ``target``, the median the smallest t where that reaches 1/2 (by bisection). The
+    decisions ln(hi/lo) ≤ t are the floating-point ones the simulation makes (:meth:`_Certifier.fast`); m and M run
+    over the window of counts :data:`TAIL` leaves.
+    """
+    from scipy.stats import binom
+
+    X, A = inputs["contexts"], inputs["groups"]
+    a_cell = (1.0 - inputs["confidence"]) / (X * A)
+    # (the upper quantile as n less the lower one of n - k: scipy's isf returns n at such tails)
+    low = int(min(binom.ppf(TAIL, n, r) for r in (rates[0, 0], rates[0, 1])))
+    high = n - int(min(binom.ppf(TAIL, n, 1.0 - r) for r in (rates[0, 0], rates[0, 1])))
+    k = np.arange(low, high + 1)
+    e_lo, e_hi = linear_extremes(np.array([1.0, 0.0]), *category_bounds(np.stack([k, n - k], -1).astype(float), a_cell))
+    cdf = [np.concatenate([[0.0], binom.cdf(k, n, r)]) for r in (rates[0, 0], rates[0, 1])]  # P(k_a <= low - 1 + i)
+
+    def within(i: npt.NDArray[np.intp], j: npt.NDArray[np.intp]) -> FloatArray:
+        """Π_a F_a(k[i], k[j]) (0 where i > j)."""
+        f0, f1 = (np.where(j >= i, c[j + 1] - c[i], 0.0) for c in cdf)
+        return f0 * f1 ** (A - 1)
+
+    def context_power(t: float) -> float:
+        ratio = lambda m, big: div(e_hi[big], e_lo[m])  # noqa: E731
+        m = np.arange(len(k))
+        lo_j, hi_j = m - 1, np.full(len(k), len(k) - 1)  # the largest j with ln(hi(j)/lo(m)) <= t, in [m - 1, end]
+        with np.errstate(divide="ignore"):
+            while np.any(hi_j > lo_j):
+                mid = (lo_j + hi_j + 1) // 2
+                ok = np.log(np.maximum(ratio(m, np.maximum(mid, 0)), 1.0)) <= t
+                lo_j, hi_j = np.where(ok, mid, lo_j), np.where(ok, hi_j, mid - 1)
+        return float(np.clip(np.sum(within(m, lo_j) - within(m + 1, lo_j)), 0.0, 1.0)) if len(k) else 0.0
+
+    power = context_power(inputs["target"]) ** X
+    half = 0.5 ** (1.0 / X)  # the median: the smallest t with P(upper <= t)^X >= 1/2
+    with np.errstate(divide="ignore"):
+        ends = np.log(np.maximum(div(e_hi[-1], e_lo), 1.0))  # each m's largest value: with the largest count
+    top = float(ends[np.isfinite(ends)].max(initial=0.0))
+    if context_power(top) < half:  # (then only the tables whose ratio is c/0 = +inf reach it)
+        return power, math.inf
+    if context_power(0.0) >= half:
+        return power, 0.0
+    # a step function of t: bisection over the floats in [0, top] in order (their bit patterns, at most 64 steps)
+    bits = lambda t: int(np.float64(t).view(np.int64))  # noqa: E731
+    lo_b, hi_b = bits(0.0), bits(top)
+    while hi_b - lo_b > 1:
+        mid_b = (lo_b + hi_b) // 2
+        if context_power(float(np.int64(mid_b).view(np.float64))) >= half:
+            hi_b = mid_b
+        else:
+            lo_b = mid_b
+    return power, float(np.int64(hi_b).view(np.float64))
+
+
 def _search(
     inputs: _Inputs,
     true_value: float,
@@ -418,6 +502,8 @@ def _search(
     """
     target, power, max_n, seed = inputs["target"], inputs["power"], inputs["max_n"], inputs["seed"]
 
+    exact = exact_route(inputs)
+
     def planned(n: int | None, at: tuple[float, float] | tuple[None, None], reason: str = "") -> SamplePlan:
         """The plan of ``n`` queries per cell (None: none found), with its (power, median upper end)."""
         total = None if n is None else n * inputs["contexts"] * inputs["groups"]
@@ -429,19 +515,23 @@ def _search(
             expected_upper=upper,
             true_value=true_value,
             reason=reason,
-            **inputs,
+            **(inputs | {"datasets": None} if exact else inputs),  # (an exact power simulates no table)
         )
 
     if target <= true_value:
         name = "L" if inputs["kind"] == "local" else "L-bar"
         reason = f"the target {target:.6g} nats is not above the true {name} of the model, {true_value:.6g} nats"
         return planned(None, (None, None), reason + ": no sample size certifies it")
-    chunk = _chunk(inputs, limit)
+    chunk = 0 if exact else _chunk(inputs, limit)
     fields = ("groups", "contexts", "confidence", "method", "kind", "seed")
     certifier = _Certifier(mechanism=mechanism, **{name: inputs[name] for name in fields})
     seen: dict[int, tuple[float, float]] = {}  # n -> (power, median upper end)
 
     def evaluate(n: int) -> tuple[float, float]:
+        if n not in seen and exact:
+            seen[n] = _order_power(n, inputs, rates)
+            if progress is not None:
+                progress(n, seen[n][0])
         if n not in seen:
             rng = np.random.default_rng(seed)
             D, shape = inputs["datasets"], (inputs["contexts"], inputs["groups"])

@@ -156,7 +156,7 @@ def plan_rows(d: Report) -> list[tuple[str, ...]]:
             fmt(p["n_total"]),
             fmt(p["achieved_power"], 3),
             nats(p["expected_upper"], 4),
-            str(p["datasets"]),
+            "exact" if p["datasets"] is None else str(p["datasets"]),
         )
         for p in d["plans"]
     ]

@@ -236,26 +236,19 @@ class QueryLog:
 
     def _read(self, header: dict) -> None:
         data = self.path.read_bytes()
-        lines = data.split(b"\n")
+        lines = data.split(b"\n")  # the last one has no newline after it: torn, or empty
         good = 0  # byte offset after the last complete, valid line
-        offset = 0
         first = None
-        for i, raw in enumerate(lines):
-            end = offset + len(raw) + 1
-            last = i == len(lines) - 1
-            if last and raw == b"":
-                break
+        for i, raw in enumerate(lines[:-1]):
             try:
                 rec = json.loads(raw)
-                if last:  # no newline after it: torn
-                    raise ValueError
             except ValueError:
-                if last or all(not x.strip() for x in lines[i + 1 :]):
+                if all(not x.strip() for x in lines[i + 1 :]):
                     break  # a torn line left by a crash: cut it off below
                 raise InputError(
                     "resume", f"line {i + 1} of {self.path} is not valid JSON; the log is damaged"
                 ) from None
-            offset = good = end
+            good += len(raw) + 1
             if first is None:
                 first = rec
                 continue
@@ -457,13 +450,6 @@ def _text(message: dict) -> str:
     return "".join(part["text"] for part in content if part.get("type") == "text")
 
 
-def _prompt_hash(prompt: str, image_digests: Sequence[str]) -> str:
-    h = hashlib.sha256(prompt.encode("utf-8"))
-    for d in image_digests:
-        h.update(d.encode())
-    return h.hexdigest()
-
-
 def run_queries(
     task: DeliveryTask,
     model: DecisionModel,
@@ -563,7 +549,7 @@ def _answer(
         "epsilon": "inf" if q.epsilon == math.inf else q.epsilon,  # JSON has no infinity: read back with float()
         "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
         **({"shown": task.shown_names(q.profiles, q.texts)} if q.texts else {}),
-        "prompt_sha256": _prompt_hash(_text(messages[-1]), digests),
+        "prompt_sha256": hashlib.sha256((_text(messages[-1]) + "".join(digests)).encode("utf-8")).hexdigest(),
         "messages": logged_messages(messages, digests),
         "time": _now(),
     }

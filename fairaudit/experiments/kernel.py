@@ -117,7 +117,6 @@ def _exact(cells: Cells, route: Route, run: dict, progress: bool, log: Callable[
 
     task, scoring = cells.task, route.scoring or SCORINGS[0]
     t0 = time.perf_counter()
-    made: ExactKernel
     if route.client is None:
         model = lm.load(route.name, log=log)
         likely: list = []

@@ -377,7 +377,6 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
         ctx: {name: dict(zip(t.decisions, map(number, a.shares[i, j]))) for j, name in enumerate(names)}
         for i, ctx in enumerate(t.contexts)
     }
-    curve = a.curve
     split = a.split
     out = head_dict(a) | {
         "queries": {
@@ -420,18 +419,10 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
             }
             for p in a.paper
         ],
+        # the curve's first eight columns (curve.csv's: ε to observed L̄), each named without "_nats"
         "curve": {
-            k: [number(v) for v in getattr(curve, k)]
-            for k in (
-                "epsilon",
-                "keep_probability",
-                "paper",
-                "tight",
-                "black_box",
-                "corollary",
-                "observed_local",
-                "observed_global",
-            )
+            column.removesuffix("_nats"): [number(v) for v in values]
+            for column, values in a.curve.to_frame().iloc[:, :8].items()
         },
     }
     if run:

@@ -130,19 +130,13 @@ def plan_queries(
     if not len(epsilons):
         raise InputError("epsilons", "the paper design needs at least one epsilon")
     orders = [tuple(task.profiles[i] for i in p) for p in prompts]
-    for eps in epsilons:
-        filt = TaskFilter.for_candidates(task, float(eps), positions, context_epsilon=context_epsilon)
-        for ctx in task.contexts:
-            for order in orders:
-                cell = "|".join(label(p) for p in order)
-                for r in range(samples):
-                    key = f"paper|{eps_key(float(eps))}|{ctx}|{cell}|{r}"
-                    s = query_seed(seed, key)
-                    shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]).bytes)
-                    texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
-                    out.append(
-                        Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts)
-                    )
+    filters = [TaskFilter.for_candidates(task, float(e), positions, context_epsilon=context_epsilon) for e in epsilons]
+    for (eps, filt), ctx, order, r in itertools.product(zip(epsilons, filters), task.contexts, orders, range(samples)):
+        key = f"paper|{eps_key(float(eps))}|{ctx}|{'|'.join(label(p) for p in order)}|{r}"
+        s = query_seed(seed, key)
+        shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]).bytes)
+        texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
+        out.append(Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts))
     return out
 
 
@@ -160,14 +154,13 @@ def table_queries(task: DeliveryTask, samples: int, seed: int) -> Iterator[Query
     ['table|maternity leave|Tom & 25 & Asian|Tom & 25 & Asian|0', 'table|maternity leave|Tom & 25 & Asian|Tom & 25 & American|0']
     """
     label = task.profile_label
-    for ctx in task.contexts:
-        for shown in itertools.product(task.profiles, repeat=task.slots):
-            cell = "|".join(label(p) for p in shown)
-            for r in range(samples):
-                key = f"table|{ctx}|{cell}|{r}"
-                s = query_seed(seed, key)
-                texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
-                yield Query(key, "table", ctx, shown, r, s, texts=texts)
+    for ctx, shown in itertools.product(task.contexts, itertools.product(task.profiles, repeat=task.slots)):
+        cell = "|".join(label(p) for p in shown)
+        for r in range(samples):
+            key = f"table|{ctx}|{cell}|{r}"
+            s = query_seed(seed, key)
+            texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
+            yield Query(key, "table", ctx, shown, r, s, texts=texts)
 
 
 def table_queries_needed(task: DeliveryTask, samples: int) -> int:

@@ -594,17 +594,10 @@ def _ask_all(
     asked = failed = 0
     pool = ThreadPoolExecutor(max_workers=concurrency)
     try:
-        pending: set = set()
         it = iter(todo)
         window = 4 * concurrency
-        while True:
-            while len(pending) < window:
-                q = next(it, None)
-                if q is None:
-                    break
-                pending.add(pool.submit(ask, q))
-            if not pending:
-                break
+        pending = {pool.submit(ask, q) for q in itertools.islice(it, window)}
+        while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
                 rec = fut.result()
@@ -616,6 +609,7 @@ def _ask_all(
                     if len(failures) < 5:
                         failures.append(rec["error"])
                 bar.update(1)
+            pending |= {pool.submit(ask, q) for q in itertools.islice(it, window - len(pending))}
     except BaseException:
         pool.shutdown(wait=True, cancel_futures=True)
         bar.close()

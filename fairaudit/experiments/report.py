@@ -421,7 +421,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
         ],
         # the curve's first eight columns (curve.csv's: ε to observed L̄), each named without "_nats"
         "curve": {
-            column.removesuffix("_nats"): [number(v) for v in values]
+            str(column).removesuffix("_nats"): [number(v) for v in values]
             for column, values in a.curve.to_frame().iloc[:, :8].items()
         },
     }

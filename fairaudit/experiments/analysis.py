@@ -66,6 +66,7 @@ __all__ = [
     "ExperimentAnalysis",
     "ObservedPoint",
     "PointResult",
+    "RunAnalysis",
     "TargetBudget",
     "analyse",
     "analyse_kernel",
@@ -291,7 +292,41 @@ class PointResult:
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class ExperimentAnalysis:
+class RunAnalysis:
+    """What the analyses of both designs hold (:class:`ExperimentAnalysis`, and the paper's design alone:
+    :class:`~fairaudit.experiments.paper_design.PaperDesignAnalysis`), which both certificates begin with.
+
+    Attributes
+    ----------
+    task : DeliveryTask
+    model : str
+    samples : int
+        Queries per shown cell (per true prompt and ε in the paper's design; 0 on the exact route).
+    positions : {"balanced", "latin", "fixed"}
+    population : Population
+    utility : Utility
+    confidence : float or None
+    unparsed : int
+        Replies that could not be parsed.
+    context_epsilon, tau : float or None
+    route : {"sampled", "exact"}
+    """
+
+    task: DeliveryTask
+    model: str
+    samples: int
+    positions: str
+    population: Population
+    utility: Utility
+    confidence: float | None
+    unparsed: int
+    context_epsilon: float | None = None
+    tau: float | None = None
+    route: str = "sampled"
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ExperimentAnalysis(RunAnalysis):
     """Everything the report says about one run.
 
     Attributes
@@ -333,26 +368,15 @@ class ExperimentAnalysis:
     unparsed_mass : UnparsedMass or None
     """
 
-    task: DeliveryTask
-    model: str
-    samples: int
-    positions: str
     kernel: Kernel
     candidate_kernel: Kernel
-    population: Population
-    utility: Utility
     curve: PrivacyCurve
     points: tuple
     baseline: PointResult
     shares: np.ndarray
     paper: tuple
-    confidence: float | None
-    unparsed: int
     table_queries: int
     paper_queries: int
-    context_epsilon: float | None = None
-    tau: float | None = None
-    route: str = "sampled"
     unparsed_share: float = 0.0
     split: PositionSplit | None = None
     budgets: tuple = ()

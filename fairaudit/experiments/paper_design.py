@@ -20,7 +20,6 @@ import numpy as np
 
 from fairaudit import (
     InputError,
-    Population,
     Utility,
     number,
     real,
@@ -28,7 +27,7 @@ from fairaudit import (
 )
 
 from ._markdown import paper_design_markdown
-from .analysis import ObservedPoint, candidate_context_mechanism, candidate_utility, observed_point
+from .analysis import ObservedPoint, RunAnalysis, candidate_context_mechanism, candidate_utility, observed_point
 from .figures import figure_class
 from .harness import paper_queries_needed
 from .report import head_dict, observed_dicts, point_dict, utility_dict, write_files, write_frame, write_json
@@ -183,7 +182,7 @@ class DesignPoint(ObservedPoint):
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class PaperDesignAnalysis:
+class PaperDesignAnalysis(RunAnalysis):
     """A run of the paper's design alone: the baseline and each ε, with the bounds.
 
     Attributes
@@ -208,19 +207,8 @@ class PaperDesignAnalysis:
         ``"sampled"``.
     """
 
-    task: DeliveryTask
-    model: str
-    samples: int
-    positions: str
-    population: Population
-    utility: Utility
     baseline: DesignPoint
     points: tuple
-    confidence: float | None
-    unparsed: int
-    context_epsilon: float | None = None
-    tau: float | None = None
-    route: str = "sampled"
 
 
 def analyse_paper_design(

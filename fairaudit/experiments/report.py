@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 
     from fairaudit import Calibration, Kernel, UtilityRange
 
-    from .analysis import ExperimentAnalysis, PointResult
+    from .analysis import ExperimentAnalysis, PointResult, RunAnalysis
     from .kernel import UnparsedMass
     from .slots import PositionSplit
     from .vlm.filter import TaskFilter
@@ -274,13 +274,13 @@ def privacy_dict(task: DeliveryTask, f: TaskFilter, epsilon_candidate: float) ->
     }
 
 
-def head_dict(analysis: Any) -> dict[str, Any]:
+def head_dict(analysis: RunAnalysis) -> dict[str, Any]:
     """The keys both designs' certificates begin with: the task, the model, the route, the positions, the samples,
     the slots, the candidates and the context's name.
 
     Parameters
     ----------
-    analysis : Analysis
+    analysis : RunAnalysis
         Either design's analysis (the task file's or the paper's).
 
     Returns

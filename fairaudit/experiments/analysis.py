@@ -64,6 +64,7 @@ from .vlm.tasks import DeliveryTask
 
 __all__ = [
     "ExperimentAnalysis",
+    "Observed",
     "ObservedPoint",
     "PointResult",
     "RunAnalysis",
@@ -173,7 +174,31 @@ def _budgets(
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class ObservedPoint:
+class Observed:
+    """What both designs observe at one ε (nats, the candidate's budget; +inf for the baseline, no filter).
+
+    Attributes
+    ----------
+    epsilon : float
+    law : Law
+        The per-candidate law.
+    local_fairness, global_fairness : Fairness
+        Observed L and L̄ (nats), with the maximising context and groups.
+    intervals : FairnessIntervals or None
+    unparsed_range : UtilityRange
+        L and L̄ over every utility of the unparsed reply in [min g, max g] (:func:`fairaudit.fairness_range`).
+    """
+
+    epsilon: float
+    law: Law
+    local_fairness: Fairness
+    global_fairness: Fairness
+    intervals: FairnessIntervals | None
+    unparsed_range: UtilityRange
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ObservedPoint(Observed):
     """What the paper's design observed at one ε: the per-candidate law from queries sampled through the filter.
 
     Attributes
@@ -193,13 +218,7 @@ class ObservedPoint:
         the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
     """
 
-    epsilon: float
     queries: int
-    law: Law
-    local_fairness: Fairness
-    global_fairness: Fairness
-    intervals: FairnessIntervals | None
-    unparsed_range: UtilityRange
 
 
 def observed_point(
@@ -252,7 +271,7 @@ def observed_point(
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class PointResult:
+class PointResult(Observed):
     """The table design at one requested ε (nats, the candidate's budget).
 
     Attributes
@@ -277,17 +296,11 @@ class PointResult:
         (:func:`fairaudit.experiments.unparsed_bounds.bound_ranges`).
     """
 
-    epsilon: float
     filter: TaskFilter
     mechanism: Mechanism
-    law: Law
-    local_fairness: Fairness
-    global_fairness: Fairness
-    intervals: FairnessIntervals | None
     black_box_local: float
     black_box_global: float
     corollary: float
-    unparsed_range: UtilityRange
     bound_ranges: dict[str, BoundRange] = field(default_factory=dict)
 
 

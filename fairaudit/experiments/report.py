@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 
     from fairaudit import Calibration, Kernel, UtilityRange
 
-    from .analysis import ExperimentAnalysis, PointResult, RunAnalysis
+    from .analysis import ExperimentAnalysis, Observed, PointResult, RunAnalysis
     from .kernel import UnparsedMass
     from .slots import PositionSplit
     from .vlm.filter import TaskFilter
@@ -319,7 +319,7 @@ def utility_dict(task: DeliveryTask, unparsed_range: UtilityRange) -> dict[str, 
     }
 
 
-def observed_dicts(point: Any) -> dict[str, Any]:
+def observed_dicts(point: Observed) -> dict[str, Any]:
     """``{"local": ..., "global": ...}``: a point's observed L and L̄ (both designs' certificates).
 
     ``point`` has ``local_fairness``, ``global_fairness``, ``intervals`` (or None) and ``unparsed_range``

@@ -9,10 +9,9 @@ proofs/black_box.md, "With ℓ = 0 the black-box value is ε(M_A)").
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -261,7 +260,7 @@ def analyse_paper_design(
         seen = observed_point(task, positions, records, e, utility, pop, confidence, method)
         bounds = paper_design_bounds(task, e, positions, tau=tau, context_epsilon=ctx_eps)
         return DesignPoint(
-            **{f.name: getattr(seen, f.name) for f in dataclasses.fields(seen)},
+            **vars(seen),
             counts=np.asarray(seen.law.counts),
             bounds=bounds,
             bound_ranges=_bound_ranges(task, e, positions, tau, ctx_eps, bounds),
@@ -305,9 +304,7 @@ def _bound_ranges(
     ranges = bound_ranges_from(b.corollary, candidate_utility(task), (b.black_box_local, b.black_box_global), inside)
     if refused:
         note = f"; the lower end is not computed ({refused[0]})"
-        ranges = {
-            k: dataclasses.replace(r, reason=r.reason + note) if k != "corollary" else r for k, r in ranges.items()
-        }
+        ranges = {k: replace(r, reason=r.reason + note) if k != "corollary" else r for k, r in ranges.items()}
     return ranges
 
 

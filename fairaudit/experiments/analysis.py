@@ -9,6 +9,7 @@ the public functions of fairaudit (docs/design.md, "Handing the core a kernel" a
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -156,20 +157,17 @@ def _budgets(
     white_box: dict[str, Any] = {"family": family, "kernel": kc, "utility": utility, "population": pop}
     utility_class = UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau)
     out = []
-    for target in sorted({float(t) for t in targets}):
-        for kind in ("local", "global"):
-            white = {
-                d: calibrate(
-                    target, kind=kind, method="white_box", context_mechanism=mx, unparsed_decision=d, **white_box
-                )
-                for d in (-1, None)
-            }
-            black = calibrate(
-                target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=pop
-            )
-            stated = white[None]
-            upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
-            out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
+    for target, kind in itertools.product(sorted({float(t) for t in targets}), ("local", "global")):
+        white = {
+            d: calibrate(target, kind=kind, method="white_box", context_mechanism=mx, unparsed_decision=d, **white_box)
+            for d in (-1, None)
+        }
+        black = calibrate(
+            target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=pop
+        )
+        stated = white[None]
+        upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
+        out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
     return tuple(out)
 
 

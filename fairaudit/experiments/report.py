@@ -498,10 +498,9 @@ def write_files(
     """
     import sys
 
-    written = []
     for name, write in steps:
         write(out / name)
-        written.append(out / name)
+    written = [out / name for name, _ in steps]
     try:
         written += plot()
     except InputError as exc:  # matplotlib missing: the tables and report are written

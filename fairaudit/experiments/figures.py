@@ -261,12 +261,9 @@ def _keep_axis(
 def _curve_top(analysis: ExperimentAnalysis) -> float:
     """Top of the curve's y axis: 1.15 × the largest finite value drawn (curve, paper's design, L̄ bound), ≥ 0.1."""
     c = analysis.curve
-    series = [c.black_box, c.paper, c.tight, c.corollary, c.observed_local, c.observed_global]
-    series.append(np.array([p.black_box_global for p in analysis.points], dtype=float))
-    series += [
-        np.array([getattr(p, kind).value for p in analysis.paper], dtype=float)
-        for kind in ("local_fairness", "global_fairness")
-    ]
+    paper = [f.value for p in analysis.paper for f in (p.local_fairness, p.global_fairness)]
+    series = [c.black_box, c.paper, c.tight, c.corollary, c.observed_local, c.observed_global, paper]
+    series.append([p.black_box_global for p in analysis.points])
     values = np.concatenate([np.asarray(v, dtype=float).ravel() for v in series] + [np.zeros(1)])
     return max(1.15 * float(values[np.isfinite(values)].max()), 0.1)
 

@@ -424,10 +424,7 @@ def _errors(points: Sequence[DesignPoint], kind: str, y: np.ndarray) -> np.ndarr
     ivs = [p.intervals for p in points]
     if not ivs or any(v is None for v in ivs):
         return None
-    iv = np.array(
-        [tuple(v.local_fairness if kind == "local" else v.global_fairness) for v in ivs if v is not None],
-        dtype=np.float64,
-    )
+    iv = np.array([tuple(getattr(v, f"{kind}_fairness")) for v in ivs], dtype=np.float64)  # (point, [lower, upper])
     with np.errstate(invalid="ignore"):
         lo, hi = np.clip(y - iv[:, 0], 0, None), np.clip(iv[:, 1] - y, 0, None)
     return np.nan_to_num(np.vstack([lo, hi]), nan=0.0, posinf=0.0)

@@ -231,9 +231,7 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     t, k = analysis.task, analysis.candidate_kernel
     assert k.counts is not None  # (estimated from counts)
     counts = k.counts.astype(int)
-    x, g, d = np.nonzero(counts)
-    reps = counts[x, g, d]
-    x, g, d = np.repeat(x, reps), np.repeat(g, reps), np.repeat(d, reps)
+    x, g, d = np.repeat(np.indices(counts.shape).reshape(3, -1), counts.ravel(), axis=1)  # each cell count times
     many = t.slots > 1  # one candidate per prompt: no position, no rival
     ctx = np.asarray([c.rsplit(" @ ", 1) if many else (c, "") for c in k.contexts], dtype=object)
     shown = np.asarray([s.split(" | ", 1) if many else (s, "") for s in k.groups], dtype=object)

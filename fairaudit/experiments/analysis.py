@@ -256,7 +256,6 @@ def observed_point(
             counts, law.contexts, law.groups, law.decisions, (candidate_context_name(task),), ("candidate",), "outcome"
         )
         iv = fairness_intervals(table, utility, IntervalOptions(confidence=confidence, method=method), population=pop)
-    rng = fairness_range(law, utility, -1, population=pop)
     return ObservedPoint(
         epsilon=eps,
         queries=len(truths),
@@ -264,7 +263,7 @@ def observed_point(
         local_fairness=local_fairness(law, utility, pop),
         global_fairness=global_fairness(law, utility, pop),
         intervals=iv,
-        unparsed_range=rng,
+        unparsed_range=fairness_range(law, utility, -1, population=pop),
     )
 
 

@@ -231,7 +231,7 @@ def _served(route: Route, out: Path, log: Callable[[str], None] | None) -> Itera
     if log:
         log(f"serving {name} on 127.0.0.1 (output in {out / 'server.log'})")
     with lm.serve(folder, log=out / "server.log") as url:
-        client = ChatClient(
+        with ChatClient(
             url,
             str(folder),
             temperature=sampling["temperature"],
@@ -239,8 +239,7 @@ def _served(route: Route, out: Path, log: Callable[[str], None] | None) -> Itera
             max_tokens=sampling["max_tokens"],
             timeout=source.timeout,
             max_retries=source.max_retries,
-        )
-        with client:
+        ) as client:
             yield lm.ServedModel(client, name)
 
 

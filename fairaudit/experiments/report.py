@@ -180,9 +180,8 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
         "[utility]",
         'kind = "table"',
         f"values = {j([float(v) for v in t.utility_values])}",
+        *([f"tau = {j(float(a.tau))}"] if a.tau is not None else []),
     ]
-    if a.tau is not None:
-        lines.append(f"tau = {j(float(a.tau))}")
     return "\n".join(lines) + "\n"
 
 

@@ -9,6 +9,7 @@ the public functions of fairaudit (docs/design.md, "Handing the core a kernel" a
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -64,8 +65,10 @@ from .vlm.tasks import DeliveryTask
 
 __all__ = [
     "ExperimentAnalysis",
+    "Observed",
     "ObservedPoint",
     "PointResult",
+    "RunAnalysis",
     "TargetBudget",
     "analyse",
     "analyse_kernel",
@@ -154,25 +157,46 @@ def _budgets(
     white_box: dict[str, Any] = {"family": family, "kernel": kc, "utility": utility, "population": pop}
     utility_class = UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau)
     out = []
-    for target in sorted({float(t) for t in targets}):
-        for kind in ("local", "global"):
-            white = {
-                d: calibrate(
-                    target, kind=kind, method="white_box", context_mechanism=mx, unparsed_decision=d, **white_box
-                )
-                for d in (-1, None)
-            }
-            black = calibrate(
-                target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=pop
-            )
-            stated = white[None]
-            upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
-            out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
+    for target, kind in itertools.product(sorted({float(t) for t in targets}), ("local", "global")):
+        white = {
+            d: calibrate(target, kind=kind, method="white_box", context_mechanism=mx, unparsed_decision=d, **white_box)
+            for d in (-1, None)
+        }
+        black = calibrate(
+            target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=pop
+        )
+        stated = white[None]
+        upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
+        out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
     return tuple(out)
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class ObservedPoint:
+class Observed:
+    """What both designs observe at one ε (nats, the candidate's budget; +inf for the baseline, no filter).
+
+    Attributes
+    ----------
+    epsilon : float
+    law : Law
+        The per-candidate law.
+    local_fairness, global_fairness : Fairness
+        Observed L and L̄ (nats), with the maximising context and groups.
+    intervals : FairnessIntervals or None
+    unparsed_range : UtilityRange
+        L and L̄ over every utility of the unparsed reply in [min g, max g] (:func:`fairaudit.fairness_range`).
+    """
+
+    epsilon: float
+    law: Law
+    local_fairness: Fairness
+    global_fairness: Fairness
+    intervals: FairnessIntervals | None
+    unparsed_range: UtilityRange
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ObservedPoint(Observed):
     """What the paper's design observed at one ε: the per-candidate law from queries sampled through the filter.
 
     Attributes
@@ -192,13 +216,7 @@ class ObservedPoint:
         the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
     """
 
-    epsilon: float
     queries: int
-    law: Law
-    local_fairness: Fairness
-    global_fairness: Fairness
-    intervals: FairnessIntervals | None
-    unparsed_range: UtilityRange
 
 
 def observed_point(
@@ -238,7 +256,6 @@ def observed_point(
             counts, law.contexts, law.groups, law.decisions, (candidate_context_name(task),), ("candidate",), "outcome"
         )
         iv = fairness_intervals(table, utility, IntervalOptions(confidence=confidence, method=method), population=pop)
-    rng = fairness_range(law, utility, -1, population=pop)
     return ObservedPoint(
         epsilon=eps,
         queries=len(truths),
@@ -246,12 +263,12 @@ def observed_point(
         local_fairness=local_fairness(law, utility, pop),
         global_fairness=global_fairness(law, utility, pop),
         intervals=iv,
-        unparsed_range=rng,
+        unparsed_range=fairness_range(law, utility, -1, population=pop),
     )
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class PointResult:
+class PointResult(Observed):
     """The table design at one requested ε (nats, the candidate's budget).
 
     Attributes
@@ -276,22 +293,50 @@ class PointResult:
         (:func:`fairaudit.experiments.unparsed_bounds.bound_ranges`).
     """
 
-    epsilon: float
     filter: TaskFilter
     mechanism: Mechanism
-    law: Law
-    local_fairness: Fairness
-    global_fairness: Fairness
-    intervals: FairnessIntervals | None
     black_box_local: float
     black_box_global: float
     corollary: float
-    unparsed_range: UtilityRange
     bound_ranges: dict[str, BoundRange] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class ExperimentAnalysis:
+class RunAnalysis:
+    """What the analyses of both designs hold (:class:`ExperimentAnalysis`, and the paper's design alone:
+    :class:`~fairaudit.experiments.paper_design.PaperDesignAnalysis`), which both certificates begin with.
+
+    Attributes
+    ----------
+    task : DeliveryTask
+    model : str
+    samples : int
+        Queries per shown cell (per true prompt and ε in the paper's design; 0 on the exact route).
+    positions : {"balanced", "latin", "fixed"}
+    population : Population
+    utility : Utility
+    confidence : float or None
+    unparsed : int
+        Replies that could not be parsed.
+    context_epsilon, tau : float or None
+    route : {"sampled", "exact"}
+    """
+
+    task: DeliveryTask
+    model: str
+    samples: int
+    positions: str
+    population: Population
+    utility: Utility
+    confidence: float | None
+    unparsed: int
+    context_epsilon: float | None = None
+    tau: float | None = None
+    route: str = "sampled"
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ExperimentAnalysis(RunAnalysis):
     """Everything the report says about one run.
 
     Attributes
@@ -333,26 +378,15 @@ class ExperimentAnalysis:
     unparsed_mass : UnparsedMass or None
     """
 
-    task: DeliveryTask
-    model: str
-    samples: int
-    positions: str
     kernel: Kernel
     candidate_kernel: Kernel
-    population: Population
-    utility: Utility
     curve: PrivacyCurve
     points: tuple
     baseline: PointResult
     shares: np.ndarray
     paper: tuple
-    confidence: float | None
-    unparsed: int
     table_queries: int
     paper_queries: int
-    context_epsilon: float | None = None
-    tau: float | None = None
-    route: str = "sampled"
     unparsed_share: float = 0.0
     split: PositionSplit | None = None
     budgets: tuple = ()

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .options import DEFAULT_KEEPS, RunOptions
 from .vlm.tasks import DeliveryTask
@@ -62,7 +61,7 @@ class Cells:
     targets: tuple[float, ...] = ()
     confidence: float | None = None
     method: str = "auto"
-    epsilons: tuple[float, ...] = dataclasses.field(init=False)
+    epsilons: tuple[float, ...] = field(init=False)
 
     def __post_init__(self) -> None:
         from .paper_design import paper_design_bounds

@@ -122,9 +122,7 @@ def read_rows(path: str | Path, keys: Mapping[str, str | Sequence[str]] | None =
     k = {**DEFAULT_KEYS, **(keys or {})}
     prompt_key, scenario_key = str(k["prompt"]), str(k["scenario"])
     attribute_keys = [k["attributes"]] if isinstance(k["attributes"], str) else list(k["attributes"])
-    prompts: list[str] = []
-    scenarios: list[str] = []
-    fills: list[list[object]] = []
+    parsed: list[tuple[str, str, list[object]]] = []  # each row's prompt, scenario and fill
     try:
         with open(path, encoding="utf-8") as f:  # a line at a time, each read to MAX_LINE + 1 characters at most
             for number, line in enumerate(iter(lambda: f.readline(MAX_LINE + 1), ""), start=1):
@@ -132,18 +130,15 @@ def read_rows(path: str | Path, keys: Mapping[str, str | Sequence[str]] | None =
                     raise InputError("path", f"line {number} is longer than {MAX_LINE:,} characters", str(path))
                 if not line.strip():
                     continue
-                if len(prompts) >= MAX_ROWS:
+                if len(parsed) >= MAX_ROWS:
                     raise InputError("path", f"has more than {MAX_ROWS:,} rows", str(path))
-                prompt, scenario, fill = _row(line, number, prompt_key, scenario_key, attribute_keys, str(path))
-                prompts.append(prompt)
-                scenarios.append(scenario)
-                fills.append(fill)
+                parsed.append(_row(line, number, prompt_key, scenario_key, attribute_keys, str(path)))
     except (OSError, UnicodeDecodeError) as e:
         raise InputError("path", f"cannot be read ({e.__class__.__name__}: {e})", str(path)) from None
-    if not prompts:
+    if not parsed:
         raise InputError("path", "has no rows", str(path))
-    frame = pd.DataFrame(fills, columns=attribute_keys)
-    return DiscrimEvalRows(tuple(prompts), tuple(scenarios), frame, str(path))
+    prompts, scenarios, fills = zip(*parsed, strict=True)
+    return DiscrimEvalRows(prompts, scenarios, pd.DataFrame(list(fills), columns=attribute_keys), str(path))
 
 
 def _row(

@@ -333,9 +333,8 @@ def run_discrim_eval(
             try:
                 fitted = mixed_effects(rows, scores)
             except InputError:  # statsmodels not installed: no coefficients (the report says so by leaving them out)
-                fitted = None
-            except np.linalg.LinAlgError as exc:  # scores that leave nothing to fit (every one the same)
-                fitted = None
+                pass
+            except np.linalg.LinAlgError as exc:  # scores that leave nothing to fit (every one the same): none either
                 warnings.warn(f"the fit failed ({exc}): no coefficients", stacklevel=1)
         notes = list(dict.fromkeys(str(w.message).split(".")[0] for w in caught))
     return DiscrimEvalRun(

@@ -217,7 +217,7 @@ def _keep_axis(
     from fairaudit import split_by_keep
 
     from .slots import epsilon_factor
-    from .vlm.filter import profile_budget
+    from .vlm.filter import TaskFilter, profile_budget
 
     n = len(task.attributes)
     sizes = np.array([len(a.values) for a in task.attributes], dtype=float)
@@ -245,33 +245,25 @@ def _keep_axis(
         with np.errstate(over="ignore"):
             return float(np.min(1.0 / (1.0 + (sizes - 1.0) * np.exp(-split))))
 
-    def candidate_at(p: float) -> float:
+    def candidate_at(p: float) -> float:  # the candidate's ε when each profile is at the ε_P of keep p (NaN: NaN)
         q = min(max(p, np.finfo(float).tiny), np.nextafter(1.0, 0.0))
-        profile = float(np.maximum(0.0, np.log(q / (1.0 - q)) + c).sum())
-        return profile * float(factor) if factor is not None else _candidate_at(task, positions, profile)
+        profile = float(np.maximum(0.0, np.log(q / (1.0 - q)) + c).sum())  # >= 0, finite unless p is NaN
+        if factor is not None:
+            return profile * float(factor)
+        if np.isnan(profile):
+            return profile
+        return TaskFilter.from_epsilon(task, profile).candidate_mechanism(positions).epsilon
 
     label = "keep probability p of each attribute (one p for all: ε = ln(p (k − 1) / (1 − p)) on k values)"
     return label, np.vectorize(shared_keep, otypes=[float]), np.vectorize(candidate_at, otypes=[float])
 
 
-def _candidate_at(task: DeliveryTask, positions: str, profile_epsilon: float) -> float:
-    """The candidate's ε when each profile is at ``profile_epsilon`` (nats)."""
-    from .vlm.filter import TaskFilter
-
-    if not np.isfinite(profile_epsilon):
-        return float(profile_epsilon)
-    return TaskFilter.from_epsilon(task, max(profile_epsilon, 0.0)).candidate_mechanism(positions).epsilon
-
-
 def _curve_top(analysis: ExperimentAnalysis) -> float:
     """Top of the curve's y axis: 1.15 × the largest finite value drawn (curve, paper's design, L̄ bound), ≥ 0.1."""
     c = analysis.curve
-    series = [c.black_box, c.paper, c.tight, c.corollary, c.observed_local, c.observed_global]
-    series.append(np.array([p.black_box_global for p in analysis.points], dtype=float))
-    series += [
-        np.array([getattr(p, kind).value for p in analysis.paper], dtype=float)
-        for kind in ("local_fairness", "global_fairness")
-    ]
+    paper = [f.value for p in analysis.paper for f in (p.local_fairness, p.global_fairness)]
+    series = [c.black_box, c.paper, c.tight, c.corollary, c.observed_local, c.observed_global, paper]
+    series.append([p.black_box_global for p in analysis.points])
     values = np.concatenate([np.asarray(v, dtype=float).ravel() for v in series] + [np.zeros(1)])
     return max(1.15 * float(values[np.isfinite(values)].max()), 0.1)
 

@@ -130,19 +130,13 @@ def plan_queries(
     if not len(epsilons):
         raise InputError("epsilons", "the paper design needs at least one epsilon")
     orders = [tuple(task.profiles[i] for i in p) for p in prompts]
-    for eps in epsilons:
-        filt = TaskFilter.for_candidates(task, float(eps), positions, context_epsilon=context_epsilon)
-        for ctx in task.contexts:
-            for order in orders:
-                cell = "|".join(label(p) for p in order)
-                for r in range(samples):
-                    key = f"paper|{eps_key(float(eps))}|{ctx}|{cell}|{r}"
-                    s = query_seed(seed, key)
-                    shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]).bytes)
-                    texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
-                    out.append(
-                        Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts)
-                    )
+    filters = [TaskFilter.for_candidates(task, float(e), positions, context_epsilon=context_epsilon) for e in epsilons]
+    for (eps, filt), ctx, order, r in itertools.product(zip(epsilons, filters), task.contexts, orders, range(samples)):
+        key = f"paper|{eps_key(float(eps))}|{ctx}|{'|'.join(label(p) for p in order)}|{r}"
+        s = query_seed(seed, key)
+        shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]).bytes)
+        texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
+        out.append(Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts))
     return out
 
 
@@ -160,14 +154,13 @@ def table_queries(task: DeliveryTask, samples: int, seed: int) -> Iterator[Query
     ['table|maternity leave|Tom & 25 & Asian|Tom & 25 & Asian|0', 'table|maternity leave|Tom & 25 & Asian|Tom & 25 & American|0']
     """
     label = task.profile_label
-    for ctx in task.contexts:
-        for shown in itertools.product(task.profiles, repeat=task.slots):
-            cell = "|".join(label(p) for p in shown)
-            for r in range(samples):
-                key = f"table|{ctx}|{cell}|{r}"
-                s = query_seed(seed, key)
-                texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
-                yield Query(key, "table", ctx, shown, r, s, texts=texts)
+    for ctx, shown in itertools.product(task.contexts, itertools.product(task.profiles, repeat=task.slots)):
+        cell = "|".join(label(p) for p in shown)
+        for r in range(samples):
+            key = f"table|{ctx}|{cell}|{r}"
+            s = query_seed(seed, key)
+            texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
+            yield Query(key, "table", ctx, shown, r, s, texts=texts)
 
 
 def table_queries_needed(task: DeliveryTask, samples: int) -> int:
@@ -236,26 +229,19 @@ class QueryLog:
 
     def _read(self, header: dict) -> None:
         data = self.path.read_bytes()
-        lines = data.split(b"\n")
+        lines = data.split(b"\n")  # the last one has no newline after it: torn, or empty
         good = 0  # byte offset after the last complete, valid line
-        offset = 0
         first = None
-        for i, raw in enumerate(lines):
-            end = offset + len(raw) + 1
-            last = i == len(lines) - 1
-            if last and raw == b"":
-                break
+        for i, raw in enumerate(lines[:-1]):
             try:
                 rec = json.loads(raw)
-                if last:  # no newline after it: torn
-                    raise ValueError
             except ValueError:
-                if last or all(not x.strip() for x in lines[i + 1 :]):
+                if all(not x.strip() for x in lines[i + 1 :]):
                     break  # a torn line left by a crash: cut it off below
                 raise InputError(
                     "resume", f"line {i + 1} of {self.path} is not valid JSON; the log is damaged"
                 ) from None
-            offset = good = end
+            good += len(raw) + 1
             if first is None:
                 first = rec
                 continue
@@ -457,13 +443,6 @@ def _text(message: dict) -> str:
     return "".join(part["text"] for part in content if part.get("type") == "text")
 
 
-def _prompt_hash(prompt: str, image_digests: Sequence[str]) -> str:
-    h = hashlib.sha256(prompt.encode("utf-8"))
-    for d in image_digests:
-        h.update(d.encode())
-    return h.hexdigest()
-
-
 def run_queries(
     task: DeliveryTask,
     model: DecisionModel,
@@ -563,7 +542,7 @@ def _answer(
         "epsilon": "inf" if q.epsilon == math.inf else q.epsilon,  # JSON has no infinity: read back with float()
         "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
         **({"shown": task.shown_names(q.profiles, q.texts)} if q.texts else {}),
-        "prompt_sha256": _prompt_hash(_text(messages[-1]), digests),
+        "prompt_sha256": hashlib.sha256((_text(messages[-1]) + "".join(digests)).encode("utf-8")).hexdigest(),
         "messages": logged_messages(messages, digests),
         "time": _now(),
     }
@@ -615,17 +594,10 @@ def _ask_all(
     asked = failed = 0
     pool = ThreadPoolExecutor(max_workers=concurrency)
     try:
-        pending: set = set()
         it = iter(todo)
         window = 4 * concurrency
-        while True:
-            while len(pending) < window:
-                q = next(it, None)
-                if q is None:
-                    break
-                pending.add(pool.submit(ask, q))
-            if not pending:
-                break
+        pending = {pool.submit(ask, q) for q in itertools.islice(it, window)}
+        while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
                 rec = fut.result()
@@ -637,6 +609,7 @@ def _ask_all(
                     if len(failures) < 5:
                         failures.append(rec["error"])
                 bar.update(1)
+            pending |= {pool.submit(ask, q) for q in itertools.islice(it, window - len(pending))}
     except BaseException:
         pool.shutdown(wait=True, cancel_futures=True)
         bar.close()

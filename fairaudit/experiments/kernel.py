@@ -117,7 +117,6 @@ def _exact(cells: Cells, route: Route, run: dict, progress: bool, log: Callable[
 
     task, scoring = cells.task, route.scoring or SCORINGS[0]
     t0 = time.perf_counter()
-    made: ExactKernel
     if route.client is None:
         model = lm.load(route.name, log=log)
         likely: list = []
@@ -232,7 +231,7 @@ def _served(route: Route, out: Path, log: Callable[[str], None] | None) -> Itera
     if log:
         log(f"serving {name} on 127.0.0.1 (output in {out / 'server.log'})")
     with lm.serve(folder, log=out / "server.log") as url:
-        client = ChatClient(
+        with ChatClient(
             url,
             str(folder),
             temperature=sampling["temperature"],
@@ -240,8 +239,7 @@ def _served(route: Route, out: Path, log: Callable[[str], None] | None) -> Itera
             max_tokens=sampling["max_tokens"],
             timeout=source.timeout,
             max_retries=source.max_retries,
-        )
-        with client:
+        ) as client:
             yield lm.ServedModel(client, name)
 
 
@@ -268,8 +266,7 @@ def table_kernel(task: DeliveryTask, records: Iterable[dict]) -> Kernel:
         if r.get("design") == "table" and r.get("status") == "ok"
     ]
     counts = np.zeros((len(task.contexts), *([n] * k), len(task.decisions)))
-    if rows:
-        np.add.at(counts, tuple(np.array(rows).T), 1.0)
+    np.add.at(counts, tuple(np.array(rows, dtype=np.intp).reshape(-1, k + 2).T), 1.0)
     groups = list(itertools.product(profiles, repeat=k))
     return Kernel.from_counts(
         counts.reshape(len(task.contexts), n**k, -1), task.contexts, groups, task.decisions, name="kernel"
@@ -325,12 +322,9 @@ def true_cell_counts(task: DeliveryTask, records: Iterable[dict]) -> np.ndarray:
         if len(rows[-1]) != task.slots + 2:
             raise InputError(f"records[{n}].profiles", f"needs {task.slots} profiles", r.get("profiles"))
     out = np.zeros((len(task.contexts), task.slots, len(task.candidates), len(task.outcomes)))
-    if rows:
-        a = np.array(rows, dtype=np.int64)
-        o = outcome_index(task)
-        for i in range(task.slots):
-            slot = np.full(len(a), i, dtype=np.int64)
-            np.add.at(out, (a[:, 0], slot, a[:, 1 + i], o[i, a[:, -1]]), 1.0)
+    a = np.array(rows, dtype=np.int64).reshape(-1, task.slots + 2)  # (record, [context, k candidates, decision])
+    slot = np.arange(task.slots)  # every record counts once per slot: indices broadcast to (record, slot)
+    np.add.at(out, (a[:, :1], slot, a[:, 1:-1], outcome_index(task)[slot, a[:, -1:]]), 1.0)
     return out
 
 

@@ -9,10 +9,9 @@ proofs/black_box.md, "With ℓ = 0 the black-box value is ε(M_A)").
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,7 +19,6 @@ import numpy as np
 
 from fairaudit import (
     InputError,
-    Population,
     Utility,
     number,
     real,
@@ -28,7 +26,7 @@ from fairaudit import (
 )
 
 from ._markdown import paper_design_markdown
-from .analysis import ObservedPoint, candidate_context_mechanism, candidate_utility, observed_point
+from .analysis import ObservedPoint, RunAnalysis, candidate_context_mechanism, candidate_utility, observed_point
 from .figures import figure_class
 from .harness import paper_queries_needed
 from .report import head_dict, observed_dicts, point_dict, utility_dict, write_files, write_frame, write_json
@@ -183,7 +181,7 @@ class DesignPoint(ObservedPoint):
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class PaperDesignAnalysis:
+class PaperDesignAnalysis(RunAnalysis):
     """A run of the paper's design alone: the baseline and each ε, with the bounds.
 
     Attributes
@@ -208,19 +206,8 @@ class PaperDesignAnalysis:
         ``"sampled"``.
     """
 
-    task: DeliveryTask
-    model: str
-    samples: int
-    positions: str
-    population: Population
-    utility: Utility
     baseline: DesignPoint
     points: tuple
-    confidence: float | None
-    unparsed: int
-    context_epsilon: float | None = None
-    tau: float | None = None
-    route: str = "sampled"
 
 
 def analyse_paper_design(
@@ -273,7 +260,7 @@ def analyse_paper_design(
         seen = observed_point(task, positions, records, e, utility, pop, confidence, method)
         bounds = paper_design_bounds(task, e, positions, tau=tau, context_epsilon=ctx_eps)
         return DesignPoint(
-            **{f.name: getattr(seen, f.name) for f in dataclasses.fields(seen)},
+            **vars(seen),
             counts=np.asarray(seen.law.counts),
             bounds=bounds,
             bound_ranges=_bound_ranges(task, e, positions, tau, ctx_eps, bounds),
@@ -317,9 +304,7 @@ def _bound_ranges(
     ranges = bound_ranges_from(b.corollary, candidate_utility(task), (b.black_box_local, b.black_box_global), inside)
     if refused:
         note = f"; the lower end is not computed ({refused[0]})"
-        ranges = {
-            k: dataclasses.replace(r, reason=r.reason + note) if k != "corollary" else r for k, r in ranges.items()
-        }
+        ranges = {k: replace(r, reason=r.reason + note) if k != "corollary" else r for k, r in ranges.items()}
     return ranges
 
 
@@ -439,10 +424,7 @@ def _errors(points: Sequence[DesignPoint], kind: str, y: np.ndarray) -> np.ndarr
     ivs = [p.intervals for p in points]
     if not ivs or any(v is None for v in ivs):
         return None
-    iv = np.array(
-        [tuple(v.local_fairness if kind == "local" else v.global_fairness) for v in ivs if v is not None],
-        dtype=np.float64,
-    )
+    iv = np.array([tuple(getattr(v, f"{kind}_fairness")) for v in ivs], dtype=np.float64)  # (point, [lower, upper])
     with np.errstate(invalid="ignore"):
         lo, hi = np.clip(y - iv[:, 0], 0, None), np.clip(iv[:, 1] - y, 0, None)
     return np.nan_to_num(np.vstack([lo, hi]), nan=0.0, posinf=0.0)

@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 
     from fairaudit import Calibration, Kernel, UtilityRange
 
-    from .analysis import ExperimentAnalysis, PointResult
+    from .analysis import ExperimentAnalysis, Observed, PointResult, RunAnalysis
     from .kernel import UnparsedMass
     from .slots import PositionSplit
     from .vlm.filter import TaskFilter
@@ -180,9 +180,8 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
         "[utility]",
         'kind = "table"',
         f"values = {j([float(v) for v in t.utility_values])}",
+        *([f"tau = {j(float(a.tau))}"] if a.tau is not None else []),
     ]
-    if a.tau is not None:
-        lines.append(f"tau = {j(float(a.tau))}")
     return "\n".join(lines) + "\n"
 
 
@@ -231,9 +230,7 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     t, k = analysis.task, analysis.candidate_kernel
     assert k.counts is not None  # (estimated from counts)
     counts = k.counts.astype(int)
-    x, g, d = np.nonzero(counts)
-    reps = counts[x, g, d]
-    x, g, d = np.repeat(x, reps), np.repeat(g, reps), np.repeat(d, reps)
+    x, g, d = np.repeat(np.indices(counts.shape).reshape(3, -1), counts.ravel(), axis=1)  # each cell count times
     many = t.slots > 1  # one candidate per prompt: no position, no rival
     ctx = np.asarray([c.rsplit(" @ ", 1) if many else (c, "") for c in k.contexts], dtype=object)
     shown = np.asarray([s.split(" | ", 1) if many else (s, "") for s in k.groups], dtype=object)
@@ -274,13 +271,13 @@ def privacy_dict(task: DeliveryTask, f: TaskFilter, epsilon_candidate: float) ->
     }
 
 
-def head_dict(analysis: Any) -> dict[str, Any]:
+def head_dict(analysis: RunAnalysis) -> dict[str, Any]:
     """The keys both designs' certificates begin with: the task, the model, the route, the positions, the samples,
     the slots, the candidates and the context's name.
 
     Parameters
     ----------
-    analysis : Analysis
+    analysis : RunAnalysis
         Either design's analysis (the task file's or the paper's).
 
     Returns
@@ -319,7 +316,7 @@ def utility_dict(task: DeliveryTask, unparsed_range: UtilityRange) -> dict[str, 
     }
 
 
-def observed_dicts(point: Any) -> dict[str, Any]:
+def observed_dicts(point: Observed) -> dict[str, Any]:
     """``{"local": ..., "global": ...}``: a point's observed L and L̄ (both designs' certificates).
 
     ``point`` has ``local_fairness``, ``global_fairness``, ``intervals`` (or None) and ``unparsed_range``
@@ -377,7 +374,6 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
         ctx: {name: dict(zip(t.decisions, map(number, a.shares[i, j]))) for j, name in enumerate(names)}
         for i, ctx in enumerate(t.contexts)
     }
-    curve = a.curve
     split = a.split
     out = head_dict(a) | {
         "queries": {
@@ -420,18 +416,10 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
             }
             for p in a.paper
         ],
+        # the curve's first eight columns (curve.csv's: ε to observed L̄), each named without "_nats"
         "curve": {
-            k: [number(v) for v in getattr(curve, k)]
-            for k in (
-                "epsilon",
-                "keep_probability",
-                "paper",
-                "tight",
-                "black_box",
-                "corollary",
-                "observed_local",
-                "observed_global",
-            )
+            str(column).removesuffix("_nats"): [number(v) for v in values]
+            for column, values in a.curve.to_frame().iloc[:, :8].items()
         },
     }
     if run:
@@ -507,10 +495,9 @@ def write_files(
     """
     import sys
 
-    written = []
     for name, write in steps:
         write(out / name)
-        written.append(out / name)
+    written = [out / name for name, _ in steps]
     try:
         written += plot()
     except InputError as exc:  # matplotlib missing: the tables and report are written

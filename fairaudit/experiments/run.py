@@ -269,11 +269,8 @@ def show_prompts(
         lines.append(f"== cell {n} of {total:,}: {q.id}")
         lines.append(f"{task.context_name}: {format_label(q.context)}")
         for i, (profile, texts) in enumerate(zip(q.profiles, task.shown_names(q.profiles, q.texts)), start=1):
-            parts = []
-            for a, v in zip(task.attributes, profile):
-                text = texts[a.name]
-                own = format_label(v)
-                parts.append(f"{a.name} = {own}" + ("" if str(text) == own else f" (shown as {text!r})"))
+            own = [(a.name, format_label(v), texts[a.name]) for a, v in zip(task.attributes, profile)]
+            parts = (f"{name} = {v}" + ("" if str(text) == v else f" (shown as {text!r})") for name, v, text in own)
             lines.append(f"candidate {i}: " + ", ".join(parts))
         system = sent.system_prompt(q.context, q.profiles, q.texts)
         if system is None:

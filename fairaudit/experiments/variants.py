@@ -71,8 +71,7 @@ def case_variants(text: str) -> tuple[str, ...]:
     >>> case_variants("1")
     ('1', ' 1')
     """
-    cased = _cases(text)
-    return tuple(dict.fromkeys((*cased, *(" " + v for v in cased))))
+    return option_variants("case", text)
 
 
 def option_variants(rule: str, reply: str, listed: Sequence[str] = ()) -> tuple[str, ...]:
@@ -130,11 +129,11 @@ def decision_variants(task: DeliveryTask, replies: Sequence[str]) -> tuple[tuple
     listed = dict(zip(task.options, task.variants)) if task.variants else {}
     out = []
     for reply in replies:
+        every = option_variants(task.variant_rule, reply, listed.get(reply, ()))
         kept: list[str] = []
-        for v in sorted(option_variants(task.variant_rule, reply, listed.get(reply, ())), key=len):
+        for v in sorted(every, key=len):
             if not any(v.startswith(k) for k in kept):
                 kept.append(v)
-        every = option_variants(task.variant_rule, reply, listed.get(reply, ()))
         out.append(tuple(v for v in every if v in kept))
     owner = sorted((v, d) for d, vs in enumerate(out) for v in vs)
     for (a, da), (b, db) in zip(owner, owner[1:]):  # a prefix sorts right before some string it begins

@@ -300,7 +300,7 @@ def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False, partial:
     if len(raw) == spec.n:
         return _decide(raw, spec, kind, None, fallback=True)
     if kind == "choice":
-        named = _mentioned(text, spec)
+        named = sorted(i for _, i in _first_mentions(text, spec))
         if len(named) == 1:
             return _result_from_choice(named[0], spec, kind, None, fallback=True)
         if len(named) > 1:
@@ -324,9 +324,7 @@ def _objects(text: str) -> Iterator[dict[str, Any]]:
     tries = 0
     while start != -1 and tries < _MAX_STARTS:
         tries += 1
-        end = _closing(text, start, quotes=True)
-        if end is None:
-            end = _closing(text, start, quotes=False)
+        end = _closing(text, start, quotes=True) or _closing(text, start, quotes=False)  # an index > start, never 0
         obj = _load(text[start : end + 1]) if end is not None else None
         if end is not None and isinstance(obj, dict):
             yield obj
@@ -535,9 +533,9 @@ def _option_index(value: Any, spec: _Options) -> int | None:
         if _NUM_RE.fullmatch(s):
             number = float(s)
             return _option_index(number, spec) if math.isfinite(number) else None
-        named = _mentioned(s, spec)
+        named = _first_mentions(s, spec)
         if len(named) == 1:
-            return named[0]
+            return named[0][1]
     return None
 
 
@@ -596,15 +594,8 @@ def _listed_order(text: str, spec: _Options, partial: bool = False) -> list[int]
     return order if partial or len(order) == spec.n else None
 
 
-def _mentioned(text: str, spec: _Options) -> list[int]:
-    """Indices of the options that ``text`` names (word-boundary match on the spelling variants)."""
-    return [i for i, pattern in enumerate(spec.mention) if pattern.search(text)]
-
-
 def _reason(container: dict, parent: dict | None) -> str | None:
-    for source in (container, parent):
-        if source is None:
-            continue
+    for source in (container, parent or {}):
         for key, value in source.items():
             if isinstance(key, str) and _norm(key) in _REASON_KEYS and isinstance(value, str):
                 return value.strip()

@@ -14,7 +14,7 @@ import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from fairaudit import InputError
+from fairaudit import InputError, choice
 
 from .vlm.tasks import DeliveryTask
 
@@ -249,8 +249,6 @@ def check_scoring(task: DeliveryTask, scoring: str) -> str:
     ...
     fairaudit.base.errors.InputError: scoring: must be one of continuation, first-token (got 'first')
     """
-    from fairaudit import choice
-
     choice(scoring, "scoring", SCORINGS)
     if scoring == "first-token" and by_sequence(task, scoring):
         what = (

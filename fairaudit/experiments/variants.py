@@ -30,10 +30,11 @@ import numpy as np
 
 from fairaudit import InputError
 
+from .exact import ExactPrompt, prompt_replies
+
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-    from .exact import ExactPrompt
     from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -153,8 +154,6 @@ def prompt_variants(task: DeliveryTask, answers: Sequence[str], prompt: ExactPro
     :func:`~fairaudit.experiments.exact.prompt_replies` (checked as it checks them), then
     :func:`decision_variants`.
     """
-    from .exact import prompt_replies
-
     return decision_variants(task, prompt_replies(task, answers, prompt))
 
 

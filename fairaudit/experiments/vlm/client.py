@@ -34,7 +34,7 @@ from numbers import Integral
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
 
-from fairaudit import FairauditError, InputError, optional_modules, real, whole
+from fairaudit import FairauditError, InputError, choice, optional_modules, real, whole
 
 from .logprobs import echo_token_logprobs, first_token_logprobs, prompt_token_logprobs
 
@@ -520,8 +520,6 @@ def constraint_body(mode: str, replies: Sequence[str], name: str = "decision") -
     >>> constraint_body("grammar", ["yes", "no"])
     {'grammar': 'root ::= "yes" | "no"'}
     """
-    from fairaudit import choice
-
     choice(mode, "constrain", CONSTRAINTS)
     if mode == "none":
         return {}

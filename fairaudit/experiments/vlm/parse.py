@@ -128,11 +128,9 @@ class _Options:
         names = tuple(options)
         if len(names) < 2:
             raise InputError("options", "needs at least two option names", names)
-        norms = []
-        for name in names:
-            if not isinstance(name, str) or not _norm(name):
-                raise InputError("options", "every option must be a non-empty string", names)
-            norms.append(_norm(name))
+        if not all(isinstance(name, str) and _norm(name) for name in names):
+            raise InputError("options", "every option must be a non-empty string", names)
+        norms = [_norm(name) for name in names]
         if len(set(norms)) != len(norms):
             raise InputError("options", "option names must differ up to case, spaces, underscores and hyphens", names)
         self.names = names

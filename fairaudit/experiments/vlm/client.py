@@ -655,15 +655,12 @@ def _content_text(content: Any) -> str | None:
     if isinstance(content, str):
         return content
     if isinstance(content, list):
-        texts = []
-        for part in content:
-            if isinstance(part, str):
-                texts.append(part)
-            elif (
-                isinstance(part, dict)
-                and isinstance(part.get("text"), str)
-                and part.get("type", "text") in ("text", "output_text")
-            ):
-                texts.append(part["text"])
-        return "\n".join(texts)
+        parts = [{"text": part} if isinstance(part, str) else part for part in content]  # a string is a text part
+        return "\n".join(
+            part["text"]
+            for part in parts
+            if isinstance(part, dict)
+            and isinstance(part.get("text"), str)
+            and part.get("type", "text") in ("text", "output_text")
+        )
     return None

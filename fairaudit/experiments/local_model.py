@@ -461,9 +461,7 @@ def loglikelihoods(
     bar = progress_bar(len(by_context), "log-likelihoods", progress, unit="prompt")
     contexts, tails = [], []
     for context, members in by_context.items():
-        spaces = len(context) - len(context.rstrip())
-        head = context[: len(context) - spaces]
-        contexts.append(list(tok.encode(head, add_special_tokens=False)))
+        contexts.append(list(tok.encode(context.rstrip(), add_special_tokens=False)))  # its end's white space: tails
         tails.append([list(tok.encode(context + requests[i][1], add_special_tokens=False)) for i in members])
         tails[-1] = [whole[len(contexts[-1]) :] for whole in tails[-1]]
         for i, tail in zip(members, tails[-1]):

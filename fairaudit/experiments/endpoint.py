@@ -208,14 +208,10 @@ class _Scorer:
         if self.route in ("prompt-logprobs", "completions-echo"):
             probs = np.array([math.exp(self.scored(i, r)) for r in flat])
         else:
-            lists: dict[str, Any] = {}  # each prefix's top list, asked once
-
-            def ask(prefix: str) -> Any:
-                if prefix not in lists:
-                    lists[prefix] = self.top(i, prefix)
-                return lists[prefix]
-
-            probs, self.missing[i] = reply_bounds(ask, flat, listed=self.client.top_logprobs)
+            lists: dict[str, Any] = {}  # each prefix's top list (reply_bounds asks each prefix once)
+            probs, self.missing[i] = reply_bounds(
+                lambda prefix: lists.setdefault(prefix, self.top(i, prefix)), flat, listed=self.client.top_logprobs
+            )
             first = lists.get("", ())
             likely = sorted((lp, t) for t, lp in first if t and not any(v.startswith(t) for v in flat))[::-1]
             self.likely[i] = [(t, math.exp(lp)) for lp, t in likely[:3]]

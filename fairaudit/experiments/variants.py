@@ -91,13 +91,8 @@ def option_variants(rule: str, reply: str, listed: Sequence[str] = ()) -> tuple[
     texts = (reply, *listed)
     if rule == "exact":
         return tuple(dict.fromkeys(texts))
-    cased = [v for t in texts for v in _cases(t)]
+    cased = [v for t in texts for v in (t, t.lower(), t[:1].upper() + t[1:], t.upper())]  # repeats go below
     return tuple(dict.fromkeys((*cased, *(" " + v for v in cased))))
-
-
-def _cases(text: str) -> tuple[str, ...]:
-    """``text``, lower case, first letter upper (the rest as written), upper case; deduplicated, in that order."""
-    return tuple(dict.fromkeys((text, text.lower(), text[:1].upper() + text[1:], text.upper())))
 
 
 def decision_variants(task: DeliveryTask, replies: Sequence[str]) -> tuple[tuple[str, ...], ...]:

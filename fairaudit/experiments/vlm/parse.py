@@ -529,8 +529,7 @@ def _option_index(value: Any, spec: _Options) -> int | None:
         if _norm(s) in spec.index:
             return spec.index[_norm(s)]
         if _NUM_RE.fullmatch(s):
-            number = float(s)
-            return _option_index(number, spec) if math.isfinite(number) else None
+            return _option_index(float(s), spec)  # an infinite float names nothing there
         named = _first_mentions(s, spec)
         if len(named) == 1:
             return named[0][1]

@@ -26,17 +26,22 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from fairaudit import InputError
+import numpy as np
+
+from fairaudit import InputError, progress_bar
 
 from .exact import ExactPrompt, by_sequence, exact_prompt, exact_prompts, prompt_replies
 from .harness import RunSummary
 from .variants import decision_row, prompt_variants
+from .vlm.client import ChatError
+from .vlm.logprobs import decision_probabilities, reply_bounds, reply_logprob
+from .vlm.messages import CHATML, chatml
 
 if TYPE_CHECKING:
-    import numpy as np
     import numpy.typing as npt
 
     from fairaudit import ProgressBar
@@ -147,8 +152,6 @@ class _Scorer:
 
     def choose_route(self) -> None:
         """The probe (continuation scoring): the route the server's first reply allows."""
-        from .vlm.messages import chatml
-
         first = prompt_replies(self.task, self.answers, self.prompts[0])[0]
         reply = _probe(self.client, self.messages(0), self.uncached, self.sent)
         if reply is not None and reply.prompt_logprobs is not None:
@@ -177,9 +180,6 @@ class _Scorer:
 
     def scored(self, i: int, text: str) -> float:
         """log P(``text`` | prompt ``i``) from the prompt's own log-probabilities (routes 1 and 3)."""
-        from .vlm.logprobs import reply_logprob
-        from .vlm.messages import chatml
-
         if self.route == "completions-echo":
             if i == 0 and text in self.echoed:
                 return self.echoed[text]
@@ -199,10 +199,6 @@ class _Scorer:
 
     def row(self, i: int) -> npt.NDArray[np.float64]:
         """P(decision | prompt ``i``), the last entry the mass on no option."""
-        import numpy as np
-
-        from .vlm.logprobs import decision_probabilities, reply_bounds
-
         if not self.sequences:
             first = self.top(i, "")
             self.missing[i] = max(0.0, 1.0 - math.fsum(math.exp(lp) for _, lp in first))  # mass outside the list
@@ -212,14 +208,10 @@ class _Scorer:
         if self.route in ("prompt-logprobs", "completions-echo"):
             probs = np.array([math.exp(self.scored(i, r)) for r in flat])
         else:
-            lists: dict[str, Any] = {}  # each prefix's top list, asked once
-
-            def ask(prefix: str) -> Any:
-                if prefix not in lists:
-                    lists[prefix] = self.top(i, prefix)
-                return lists[prefix]
-
-            probs, self.missing[i] = reply_bounds(ask, flat, listed=self.client.top_logprobs)
+            lists: dict[str, Any] = {}  # each prefix's top list (reply_bounds asks each prefix once)
+            probs, self.missing[i] = reply_bounds(
+                lambda prefix: lists.setdefault(prefix, self.top(i, prefix)), flat, listed=self.client.top_logprobs
+            )
             first = lists.get("", ())
             likely = sorted((lp, t) for t, lp in first if t and not any(v.startswith(t) for v in flat))[::-1]
             self.likely[i] = [(t, math.exp(lp)) for lp, t in likely[:3]]
@@ -255,13 +247,6 @@ def endpoint_kernel(
         prompt's scored tokens do not end with the reply; ``exact`` when a likely first token begins two options'
         replies (first-token scoring); ``attribute.text`` when the texts make too many prompts.
     """
-    import numpy as np
-
-    from fairaudit import progress_bar
-
-    from .vlm.client import ChatError
-    from .vlm.messages import CHATML
-
     s = _Scorer(task, client, scoring)
     if s.sequences:
         try:
@@ -298,8 +283,6 @@ def _probe(client: ChatClient, messages: list[dict], uncached: dict, sent: list[
     A server that rejects the field (HTTP 400 or 422) gets the request again without it. None when the server has
     no chat completions (HTTP 404 or 405); any other failure raises.
     """
-    from .vlm.client import ChatError
-
     for again, extra in enumerate(({**uncached, **PROMPT_LOGPROBS}, uncached)):
         try:
             return client.complete(messages, extra=extra)
@@ -319,9 +302,6 @@ def _probe_echo(client: ChatClient, prompt: str, reply: str, sent: list[str]) ->
     Raises InputError (``endpoint``) when the server has no such route (HTTP 400, 404, 405 or 422) or its echo has
     no log-probabilities: then no route gives the exact kernel.
     """
-    from .vlm.client import ChatError
-    from .vlm.logprobs import reply_logprob
-
     why = "echoed none"
     try:
         answer = client.echo(prompt + reply)
@@ -349,10 +329,6 @@ def _ask_cells(
     any other exception (an :class:`InputError`, KeyboardInterrupt) does too, and propagates once the requests in
     flight have ended.
     """
-    from concurrent.futures import ThreadPoolExecutor, as_completed
-
-    from .vlm.client import ChatError
-
     answered: dict[int, npt.NDArray[np.float64]] = {}
     pool = ThreadPoolExecutor(max_workers=workers)
     try:

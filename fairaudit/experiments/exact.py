@@ -14,7 +14,7 @@ import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from fairaudit import InputError
+from fairaudit import InputError, choice
 
 from .vlm.tasks import DeliveryTask
 
@@ -88,10 +88,8 @@ def answer_task(task: DeliveryTask) -> DeliveryTask:
     if not sep:
         raise InputError("task", "has no answer-format paragraph to replace", task.name)
     o1, o2 = task.options
-    if task.kind == "choice":
-        ask = f"Answer with a single digit: 1 to choose {o1}, 2 to choose {o2}.\nAnswer:"
-    else:
-        ask = f"Answer with a single digit: 1 to serve {o1} first, 2 to serve {o2} first.\nAnswer:"
+    verb, then = ("choose", "") if task.kind == "choice" else ("serve", " first")
+    ask = f"Answer with a single digit: 1 to {verb} {o1}{then}, 2 to {verb} {o2}{then}.\nAnswer:"
     return dataclasses.replace(task, template=head + "\n\n" + ask)
 
 
@@ -141,8 +139,7 @@ def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> l
         context, profiles = cell[0], tuple(cell[1:])
         index = (task.contexts.index(context), *(task.profiles.index(p) for p in profiles))
         choices = list(task.text_choices(profiles)) if task.varies else [()]
-        for texts in choices:
-            out.append(ExactPrompt(index, context, profiles, tuple(texts), 1.0 / len(choices)))
+        out.extend(ExactPrompt(index, context, profiles, tuple(texts), 1.0 / len(choices)) for texts in choices)
     return out
 
 
@@ -252,8 +249,6 @@ def check_scoring(task: DeliveryTask, scoring: str) -> str:
     ...
     fairaudit.base.errors.InputError: scoring: must be one of continuation, first-token (got 'first')
     """
-    from fairaudit import choice
-
     choice(scoring, "scoring", SCORINGS)
     if scoring == "first-token" and by_sequence(task, scoring):
         what = (

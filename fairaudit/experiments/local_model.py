@@ -34,17 +34,16 @@ from typing import IO, TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit import InputError
+from fairaudit import InputError, Kernel, progress_bar
 
-from .exact import by_sequence, exact_prompt, exact_prompts
+from .exact import by_sequence, check_scoring, exact_prompt, exact_prompts
 from .model_files import prepare, quiet_transformers, require_torch
-from .variants import decision_row, prompt_variants
+from .variants import decision_row, prompt_variants, reply_decision
 from .vlm.models import EndpointModel, ModelReply, Query
+from .vlm.parse import parse_reply
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
-    from fairaudit import Kernel
-
     from .vlm.client import ChatClient
 
 __all__ = [
@@ -138,9 +137,6 @@ def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None)
     -------
     numpy.ndarray of int, shape (size,)
     """
-    from .variants import reply_decision
-    from .vlm.parse import parse_reply
-
     n = len(tokenizer) if size is None else int(size)
     unparsed = len(task.options)
     out: npt.NDArray[np.intp] = np.full(n, unparsed, dtype=np.intp)
@@ -227,8 +223,6 @@ def exact_kernel(
     read as each decision (:func:`token_decisions`). A cell whose candidates have several texts averages over
     every choice of them.
     """
-    from .exact import check_scoring
-
     torch, _ = require_torch()
     check_scoring(task, scoring)
     m = model if model is not None else load("smollm2")
@@ -245,8 +239,6 @@ def exact_kernel(
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
     sequences = by_sequence(task, scoring)
     onehot: npt.NDArray[np.float64] | None = None  # (vocabulary, decisions): each token's decision (first-token)
-    from fairaudit import progress_bar
-
     bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress, unit="query")
     worst = -1.0  # the largest unparsed mass of a prompt so far
     size = prompt_batch or _prompts_per_pass(m.model, max(len(s) for s in ids) - prefix_len)
@@ -466,14 +458,10 @@ def loglikelihoods(
             )
         by_context.setdefault(context, []).append(i)
     out = np.zeros(len(requests))
-    from fairaudit import progress_bar
-
     bar = progress_bar(len(by_context), "log-likelihoods", progress, unit="prompt")
     contexts, tails = [], []
     for context, members in by_context.items():
-        spaces = len(context) - len(context.rstrip())
-        head = context[: len(context) - spaces]
-        contexts.append(list(tok.encode(head, add_special_tokens=False)))
+        contexts.append(list(tok.encode(context.rstrip(), add_special_tokens=False)))  # its end's white space: tails
         tails.append([list(tok.encode(context + requests[i][1], add_special_tokens=False)) for i in members])
         tails[-1] = [whole[len(contexts[-1]) :] for whole in tails[-1]]
         for i, tail in zip(members, tails[-1]):
@@ -511,8 +499,6 @@ def exact_law(task: DeliveryTask, probabilities: npt.ArrayLike) -> Kernel:
         :func:`fairaudit.experiments.harness.table_kernel` (groups: the shown
         pairs, row-major), for :func:`fairaudit.experiments.analysis.analyse_kernel`.
     """
-    from fairaudit import Kernel
-
     p = np.asarray(probabilities, dtype=float)
     groups = list(itertools.product(task.profiles, repeat=task.slots))
     return Kernel(

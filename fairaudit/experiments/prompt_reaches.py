@@ -135,17 +135,14 @@ def _unreached(problem: str, hint: str, found: tuple[str, str] | None) -> InputE
 def _placeholder_line(task: DeliveryTask, names: tuple[str, ...], slot: int | None) -> tuple[str, str] | None:
     """The first template line with a Python-style placeholder of one of ``names`` (``{age}``, ``{c1.age}``,
     ``{ c1["age"] }``), preferring one that names slot ``slot``'s ``c<slot+1>``: (its field, the line), or None."""
-    found: list[tuple[bool, str, str]] = []
-    for field, template in (("prompt.user", task.template), ("prompt.system", task.system)):
-        for line in (template or "").splitlines():
-            for m in _placeholders(names).finditer(line):
-                found.append(
-                    (slot is not None and (m.group("owner") or "").lower() == f"c{slot + 1}", field, line.strip())
-                )
-    if not found:
-        return None
-    best = next((f for f in found if f[0]), found[0])
-    return best[1], best[2]
+    owner = None if slot is None else f"c{slot + 1}"
+    found = [
+        (field, line.strip(), (m.group("owner") or "").lower() == owner)
+        for field, template in (("prompt.user", task.template), ("prompt.system", task.system))
+        for line in (template or "").splitlines()
+        for m in _placeholders(names).finditer(line)
+    ]
+    return next(((field, line) for field, line, mine in found if mine), found[0][:2] if found else None)
 
 
 def _placeholders(names: tuple[str, ...]) -> re.Pattern[str]:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from fairaudit import Mechanism, Population, Utility, number
+from fairaudit import Mechanism, Population, Utility, number, worst_model
 
 __all__ = ["BoundRange", "bound_ranges", "bound_ranges_from"]
 
@@ -81,7 +81,6 @@ def bound_ranges(
     dict of str to BoundRange
         ``"corollary"``, ``"black_box"`` (on L) and ``"black_box_global"`` (on L̄): each bound's range (nats).
     """
-    from fairaudit import worst_model
 
     def inside(u: Utility) -> tuple[float, float]:
         wm = worst_model(mechanism, u, context_mechanism=context_mechanism, population=population, tau=tau)

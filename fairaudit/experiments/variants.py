@@ -30,10 +30,11 @@ import numpy as np
 
 from fairaudit import InputError
 
+from .exact import ExactPrompt, prompt_replies
+
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-    from .exact import ExactPrompt
     from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -71,8 +72,7 @@ def case_variants(text: str) -> tuple[str, ...]:
     >>> case_variants("1")
     ('1', ' 1')
     """
-    cased = _cases(text)
-    return tuple(dict.fromkeys((*cased, *(" " + v for v in cased))))
+    return option_variants("case", text)
 
 
 def option_variants(rule: str, reply: str, listed: Sequence[str] = ()) -> tuple[str, ...]:
@@ -91,13 +91,8 @@ def option_variants(rule: str, reply: str, listed: Sequence[str] = ()) -> tuple[
     texts = (reply, *listed)
     if rule == "exact":
         return tuple(dict.fromkeys(texts))
-    cased = [v for t in texts for v in _cases(t)]
+    cased = [v for t in texts for v in (t, t.lower(), t[:1].upper() + t[1:], t.upper())]  # repeats go below
     return tuple(dict.fromkeys((*cased, *(" " + v for v in cased))))
-
-
-def _cases(text: str) -> tuple[str, ...]:
-    """``text``, lower case, first letter upper (the rest as written), upper case; deduplicated, in that order."""
-    return tuple(dict.fromkeys((text, text.lower(), text[:1].upper() + text[1:], text.upper())))
 
 
 def decision_variants(task: DeliveryTask, replies: Sequence[str]) -> tuple[tuple[str, ...], ...]:
@@ -130,11 +125,11 @@ def decision_variants(task: DeliveryTask, replies: Sequence[str]) -> tuple[tuple
     listed = dict(zip(task.options, task.variants)) if task.variants else {}
     out = []
     for reply in replies:
+        every = option_variants(task.variant_rule, reply, listed.get(reply, ()))
         kept: list[str] = []
-        for v in sorted(option_variants(task.variant_rule, reply, listed.get(reply, ())), key=len):
+        for v in sorted(every, key=len):
             if not any(v.startswith(k) for k in kept):
                 kept.append(v)
-        every = option_variants(task.variant_rule, reply, listed.get(reply, ()))
         out.append(tuple(v for v in every if v in kept))
     owner = sorted((v, d) for d, vs in enumerate(out) for v in vs)
     for (a, da), (b, db) in zip(owner, owner[1:]):  # a prefix sorts right before some string it begins
@@ -154,8 +149,6 @@ def prompt_variants(task: DeliveryTask, answers: Sequence[str], prompt: ExactPro
     :func:`~fairaudit.experiments.exact.prompt_replies` (checked as it checks them), then
     :func:`decision_variants`.
     """
-    from .exact import prompt_replies
-
     return decision_variants(task, prompt_replies(task, answers, prompt))
 
 

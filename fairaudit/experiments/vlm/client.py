@@ -34,7 +34,7 @@ from numbers import Integral
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
 
-from fairaudit import FairauditError, InputError, optional_modules, real, whole
+from fairaudit import FairauditError, InputError, choice, optional_modules, real, whole
 
 from .logprobs import echo_token_logprobs, first_token_logprobs, prompt_token_logprobs
 
@@ -233,6 +233,9 @@ class ChatClient:
         self.top_logprobs = None if top_logprobs is None else whole(top_logprobs, "top_logprobs", low=1)
         self.extra_body = _extra_body(extra_body)
         self._key = _api_key(api_key, api_key_env)
+        self._headers = {"Content-Type": "application/json", "Accept": "application/json"}
+        if self._key is not None:
+            self._headers["Authorization"] = f"Bearer {self._key}"
 
         httpx, tenacity = optional_modules("vlm", "needs pip install 'fairness-certify[vlm]'", "httpx", "tenacity")
         self._httpx = httpx
@@ -380,19 +383,13 @@ class ChatClient:
         except (TypeError, ValueError):
             raise InputError("messages", "must be JSON-serialisable (bytes? use user_message for images)") from None
 
-    def _headers(self) -> dict[str, str]:
-        headers = {"Content-Type": "application/json", "Accept": "application/json"}
-        if self._key is not None:
-            headers["Authorization"] = f"Bearer {self._key}"
-        return headers
-
     def _attempt(self, url: str, content: bytes, attempt: int, prompt: str | None) -> ChatReply:
         httpx = self._httpx
         problem: _Failure | None = None
         with self._slots:
             start = time.perf_counter()
             try:
-                response = self._http.post(url, content=content, headers=self._headers())
+                response = self._http.post(url, content=content, headers=self._headers)
             except httpx.TimeoutException:
                 problem = _Failure("timeout", f"no reply within {self.timeout:g} s")
             except httpx.DecodingError as exc:
@@ -523,8 +520,6 @@ def constraint_body(mode: str, replies: Sequence[str], name: str = "decision") -
     >>> constraint_body("grammar", ["yes", "no"])
     {'grammar': 'root ::= "yes" | "no"'}
     """
-    from fairaudit import choice
-
     choice(mode, "constrain", CONSTRAINTS)
     if mode == "none":
         return {}
@@ -660,15 +655,12 @@ def _content_text(content: Any) -> str | None:
     if isinstance(content, str):
         return content
     if isinstance(content, list):
-        texts = []
-        for part in content:
-            if isinstance(part, str):
-                texts.append(part)
-            elif (
-                isinstance(part, dict)
-                and isinstance(part.get("text"), str)
-                and part.get("type", "text") in ("text", "output_text")
-            ):
-                texts.append(part["text"])
-        return "\n".join(texts)
+        parts = [{"text": part} if isinstance(part, str) else part for part in content]  # a string is a text part
+        return "\n".join(
+            part["text"]
+            for part in parts
+            if isinstance(part, dict)
+            and isinstance(part.get("text"), str)
+            and part.get("type", "text") in ("text", "output_text")
+        )
     return None

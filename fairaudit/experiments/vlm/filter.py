@@ -32,6 +32,7 @@ from fairaudit import (
     split_by_keep,
 )
 
+from ..slots import candidate_mechanism, candidate_mechanism_epsilon, epsilon_factor
 from .tasks import DeliveryTask
 
 __all__ = ["RELEASE_RULE", "SPLIT_RULE", "TaskFilter", "candidate_family", "profile_budget"]
@@ -216,8 +217,6 @@ class TaskFilter:
         rival"`` for two (:func:`fairaudit.experiments.slots.candidate_mechanism`).
         For the paper's pair, M_cand[a, (s, o)] = M_P[a, s] · M_P[rival(a), o].
         """
-        from ..slots import candidate_mechanism
-
         return candidate_mechanism(self.task, self.profile_mechanism, positions)
 
     def release(
@@ -305,8 +304,6 @@ def profile_budget(task: DeliveryTask, positions: str = "balanced") -> Callable[
     >>> profile_budget(HR_DELIVERY)(3.0)
     1.5
     """
-    from ..slots import candidate_mechanism_epsilon, epsilon_factor
-
     factor = epsilon_factor(task, positions)
     if factor is not None:
         c = float(factor)

@@ -21,7 +21,7 @@ give (:func:`shared_first_token`); such a task is run by sampling instead.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -356,22 +356,19 @@ def prompt_token_logprobs(reply: Any) -> tuple[tuple[str, float], ...] | None:
         return None
     ids = reply.get("prompt_token_ids")
     ids = ids if isinstance(ids, list) and len(ids) == len(entries) else None
-    out: list[tuple[str, float]] = []
-    for i, entry in enumerate(entries):
-        if entry is None and not out:
-            continue  # the first token: nothing precedes it
+
+    def own(i: int, entry: Any) -> Any:
+        """The prompt's own token at position ``i`` as a ``{"token", "logprob"}`` mapping; None stays None, () when
+        the entry is not of the form."""
         if not isinstance(entry, Mapping) or not entry:
-            return None
+            return None if entry is None else ()
         chosen = entry.get(str(ids[i])) if ids is not None else None
-        if chosen is None:
-            chosen = next(iter(entry.values()))
+        chosen = next(iter(entry.values())) if chosen is None else chosen
         if not isinstance(chosen, Mapping):
-            return None
-        token, logprob = _entry({"token": chosen.get("decoded_token"), "logprob": chosen.get("logprob")})
-        if token is None or logprob is None:
-            return None
-        out.append((token, logprob))
-    return tuple(out) if out else None
+            return ()
+        return {"token": chosen.get("decoded_token"), "logprob": chosen.get("logprob")}
+
+    return _after_first(own(i, entry) for i, entry in enumerate(entries))
 
 
 def echo_token_logprobs(reply: Any, prompt: str) -> tuple[tuple[str, float], ...] | None:
@@ -424,14 +421,20 @@ def echo_token_logprobs(reply: Any, prompt: str) -> tuple[tuple[str, float], ...
         while kept < len(tokens) and length < len(prompt) and isinstance(tokens[kept], str):
             length += len(tokens[kept])
             kept += 1
+    return _after_first(None if value is None else (token, value) for token, value in zip(tokens[:kept], values[:kept]))
+
+
+def _after_first(entries: Iterable[Any]) -> tuple[tuple[str, float], ...] | None:
+    """(token, log-probability) of each entry (:func:`_entry`) after the leading None ones (the first token: nothing
+    precedes it); None when an entry is not one, or none is left."""
     out: list[tuple[str, float]] = []
-    for token, value in zip(tokens[:kept], values[:kept], strict=True):
-        if value is None and not out:
-            continue  # the first token: nothing precedes it
-        pair = _entry((token, value))
-        if pair[0] is None or pair[1] is None:
+    for entry in entries:
+        if entry is None and not out:
+            continue
+        token, logprob = _entry(entry)
+        if token is None or logprob is None:
             return None
-        out.append((pair[0], pair[1]))
+        out.append((token, logprob))
     return tuple(out) if out else None
 
 

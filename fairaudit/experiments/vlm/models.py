@@ -347,11 +347,6 @@ TABLE_LIMIT = 1 << 24
 """The most numbers (contexts × shown cells × decisions) a simulated model holds as a table; beyond, a :class:`RuleModel`."""
 
 
-def _profile_scores(task: DeliveryTask, target: tuple) -> np.ndarray:
-    """How many attributes each profile shares with ``target``, shape (n_profiles,)."""
-    return np.array([sum(v == w for v, w in zip(p, target)) for p in task.profiles])
-
-
 @functools.lru_cache(maxsize=8)
 def _orders(task: DeliveryTask) -> np.ndarray:
     """The task's complete orders as an array [order, rank] -> slot (cached: 8! rows for eight candidates)."""
@@ -365,7 +360,7 @@ def _prefers(task: DeliveryTask, target: tuple, cells: np.ndarray) -> np.ndarray
     complete decisions. One candidate per prompt: the first option with probability the share of attributes it
     shares with ``target``, the other options evenly.
     """
-    score = _profile_scores(task, target).astype(float)
+    score = np.array([sum(v == w for v, w in zip(p, target)) for p in task.profiles], dtype=float)  # shared values
     s = score[cells]  # [..., slot]
     if task.slots == 1:
         first = s[..., 0] / len(task.attributes)
@@ -399,8 +394,7 @@ def _position(task: DeliveryTask, p_first: float | None, cells: np.ndarray) -> n
 
 def _all_cells(task: DeliveryTask) -> np.ndarray:
     """Every shown cell's profile indices, shape (n_profiles, ..., n_profiles, k)."""
-    n, k = len(task.profiles), task.slots
-    return np.stack(np.meshgrid(*([np.arange(n)] * k), indexing="ij"), axis=-1)
+    return np.moveaxis(np.indices((len(task.profiles),) * task.slots), 0, -1)
 
 
 def _tile(task: DeliveryTask, decide: np.ndarray) -> np.ndarray:

@@ -128,11 +128,9 @@ class _Options:
         names = tuple(options)
         if len(names) < 2:
             raise InputError("options", "needs at least two option names", names)
-        norms = []
-        for name in names:
-            if not isinstance(name, str) or not _norm(name):
-                raise InputError("options", "every option must be a non-empty string", names)
-            norms.append(_norm(name))
+        if not all(isinstance(name, str) and _norm(name) for name in names):
+            raise InputError("options", "every option must be a non-empty string", names)
+        norms = [_norm(name) for name in names]
         if len(set(norms)) != len(norms):
             raise InputError("options", "option names must differ up to case, spaces, underscores and hyphens", names)
         self.names = names
@@ -300,7 +298,7 @@ def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False, partial:
     if len(raw) == spec.n:
         return _decide(raw, spec, kind, None, fallback=True)
     if kind == "choice":
-        named = _mentioned(text, spec)
+        named = sorted(i for _, i in _first_mentions(text, spec))
         if len(named) == 1:
             return _result_from_choice(named[0], spec, kind, None, fallback=True)
         if len(named) > 1:
@@ -324,9 +322,7 @@ def _objects(text: str) -> Iterator[dict[str, Any]]:
     tries = 0
     while start != -1 and tries < _MAX_STARTS:
         tries += 1
-        end = _closing(text, start, quotes=True)
-        if end is None:
-            end = _closing(text, start, quotes=False)
+        end = _closing(text, start, quotes=True) or _closing(text, start, quotes=False)  # an index > start, never 0
         obj = _load(text[start : end + 1]) if end is not None else None
         if end is not None and isinstance(obj, dict):
             yield obj
@@ -533,11 +529,10 @@ def _option_index(value: Any, spec: _Options) -> int | None:
         if _norm(s) in spec.index:
             return spec.index[_norm(s)]
         if _NUM_RE.fullmatch(s):
-            number = float(s)
-            return _option_index(number, spec) if math.isfinite(number) else None
-        named = _mentioned(s, spec)
+            return _option_index(float(s), spec)  # an infinite float names nothing there
+        named = _first_mentions(s, spec)
         if len(named) == 1:
-            return named[0]
+            return named[0][1]
     return None
 
 
@@ -596,15 +591,8 @@ def _listed_order(text: str, spec: _Options, partial: bool = False) -> list[int]
     return order if partial or len(order) == spec.n else None
 
 
-def _mentioned(text: str, spec: _Options) -> list[int]:
-    """Indices of the options that ``text`` names (word-boundary match on the spelling variants)."""
-    return [i for i, pattern in enumerate(spec.mention) if pattern.search(text)]
-
-
 def _reason(container: dict, parent: dict | None) -> str | None:
-    for source in (container, parent):
-        if source is None:
-            continue
+    for source in (container, parent or {}):
         for key, value in source.items():
             if isinstance(key, str) and _norm(key) in _REASON_KEYS and isinstance(value, str):
                 return value.strip()

@@ -317,13 +317,10 @@ class DeliveryTask:
         >>> list(task.text_choices([("A",), ("B",)]))
         [(0, 0), (1, 0)]
         """
-        counts = [len(self.texts(a.name, v)) for p in profiles for a, v in zip(self.attributes, p)]
-        n_attr = len(self.attributes)
-        groups: dict[tuple[int, Hashable], list[int]] = {}
-        for i, p in enumerate(profiles):
-            for j, v in enumerate(p):
-                groups.setdefault((j, v), []).append(i * n_attr + j)
-        distinct = [idx for idx in groups.values() if len(idx) > 1 and counts[idx[0]] >= len(idx)]
+        keys = [(j, v) for p in profiles for j, v in enumerate(p)]  # (attribute, value) of each index, slot-major
+        counts = [len(self.texts(self.attributes[j].name, v)) for j, v in keys]
+        groups = [[at for at, other in enumerate(keys) if other == key] for key in set(keys)]  # who shares a value
+        distinct = [idx for idx in groups if len(idx) > 1 and counts[idx[0]] >= len(idx)]
         for choice in itertools.product(*(range(n) for n in counts)):
             if all(len({choice[i] for i in idx}) == len(idx) for idx in distinct):
                 yield choice

@@ -20,11 +20,12 @@
     over the groups and the three events of TV). A pair loop over the groups would grow as the square of the
     ratio; these stay flat. Agreement: L, L_dp and their pairs against the baseline's.
 
-(d) Sample-size plans (``fairaudit.plan``, the ``plan`` command) along the cells: 1,000 groups (the most ``plan``
-    takes) in 1, 10, 100 and 1,000 contexts (``--quick``: 1, 10), 20 simulated tables per n, target 1 nat; time,
-    tracemalloc's peak and its ratio to one simulated set of tables (20 × cells × 8 bytes: bounded by the 64 MiB
-    chunks as the cells grow), and the plan's n. Then 10^4, 10^6 and 10^9 groups: the refusal, its time and its
-    line (it must name ``groups``).
+(d) Sample-size plans (``fairaudit.plan``, the ``plan`` command) along the cells, target 1 nat: on L, whose power
+    is exact (the counts' order statistics), 1,000 groups (the most ``plan`` takes) in 1, 10, 100 and 1,000
+    contexts (``--quick``: 1, 10, 1,000); on L-bar, simulated with 20 tables per n, in 1, 10 and 100 contexts
+    (``--quick``: 1, 10). Time, tracemalloc's peak (for the simulated, its ratio to one set of tables, 20 × cells
+    × 8 bytes: bounded by the 64 MiB chunks as the cells grow) and the plan's n. Then 10^4, 10^6 and 10^9 groups:
+    the refusal, its time and its line (it must name ``groups``).
 
 Times are medians of repeats; ratios between routes timed in the same run are what carries across machines.
 The script exits with status 1 when an agreement exceeds 1e-7 (relative).
@@ -77,6 +78,7 @@ FULL = dict(
     old_up_to=300,
     audit_groups=(10**3, 10**4, 10**5),
     plan_contexts=(1, 10, 100, 1000),
+    plan_simulated=(1, 10, 100),
 )
 QUICK = dict(
     groups=(2, 16, 256, 10**4, 10**6, 10**9),
@@ -85,7 +87,8 @@ QUICK = dict(
     big_repeats=1,
     old_up_to=50,
     audit_groups=(10**3, 10**4),
-    plan_contexts=(1, 10),
+    plan_contexts=(1, 10, 1000),
+    plan_simulated=(1, 10),
 )
 TARGET = 0.5
 BISECT_UP_TO = 10**6
@@ -314,28 +317,33 @@ PLAN_TABLES = 20
 
 
 def plan_rows(cfg: dict, failures: list[str]) -> str:
-    """Part (d): sample-size plans along the cells, and the refusal beyond the groups ``plan`` takes."""
+    """Part (d): sample-size plans along the cells, exact (L) and simulated (L-bar), and the refusal beyond the
+    groups ``plan`` takes."""
     rows = []
-    cases = [(1000, c) for c in cfg["plan_contexts"]] + [(k, 1) for k in (10**4, 10**6, 10**9)]
-    for k, contexts in cases:
+    cases = [(1000, c, "local") for c in cfg["plan_contexts"]] + [(1000, c, "global") for c in cfg["plan_simulated"]]
+    cases += [(k, 1, "local") for k in (10**4, 10**6, 10**9)]
+    for k, contexts, kind in cases:
         cells = k * contexts
         t0 = time.perf_counter()
         tracemalloc.start()
         try:
-            plan = fa.plan(1.0, groups=k, contexts=contexts, datasets=PLAN_TABLES)
+            plan = fa.plan(1.0, groups=k, contexts=contexts, datasets=PLAN_TABLES, kind=kind)
             answer = f"n = {plan.n_per_cell:,} per cell"
+            route = "exact" if plan.datasets is None else f"simulated, {plan.datasets} tables"
         except fa.InputError as exc:
-            answer = f"refused: {exc}"
+            answer, route = f"refused: {exc}", ""
             if not str(exc).startswith("groups"):
                 failures.append(f"plan, {k:,} groups: the refusal does not name groups ({exc})")
         finally:
             peak = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
         t = time.perf_counter() - t0
-        ratio = f"{peak / (PLAN_TABLES * cells * 8):.2g}×" if answer.startswith("n =") else ""
-        rows.append([f"{k:,}", f"{contexts:,}", f"{cells:,}", fmt_time(t), f"{peak / 2**20:,.1f} MiB", ratio, answer])
-    header = ["groups k", "contexts", "cells", "time", "peak memory", "peak ÷ one set of tables", "plan"]
-    return table(header, rows, "rrrrrrl")
+        ratio = f"{peak / (PLAN_TABLES * cells * 8):.2g}×" if route.startswith("simulated") else ""
+        name = "L" if kind == "local" else "L-bar"
+        rows.append([name, f"{k:,}", f"{contexts:,}", f"{cells:,}", route, fmt_time(t), f"{peak / 2**20:,.1f} MiB",
+                     ratio, answer])  # fmt: skip
+    header = ["on", "groups k", "contexts", "cells", "power", "time", "peak memory", "peak ÷ one set of tables", "plan"]
+    return table(header, rows, "lrrrlrrrl")
 
 
 def run(quick: bool, seed: int) -> tuple[str, list[str]]:
@@ -343,6 +351,7 @@ def run(quick: bool, seed: int) -> tuple[str, list[str]]:
     failures: list[str] = []
     # (imports and first calls out of the timings)
     calibrate(TARGET, family=fa.randomized_response_family(range(3)), method="black_box")
+    fa.plan(1.0, datasets=2, kind="global"), fa.plan(1.0)  # (scipy.stats, imported by plan where used)
     parts = [
         "# Many groups",
         "",
@@ -364,7 +373,7 @@ def run(quick: bool, seed: int) -> tuple[str, list[str]]:
         "",
         audit_rows(cfg, seed, failures),
         "",
-        f"## (d) Sample-size plans along the cells (target 1 nat, {PLAN_TABLES} simulated tables per n)",
+        f"## (d) Sample-size plans along the cells (target 1 nat; L exact, L-bar from {PLAN_TABLES} tables per n)",
         "",
         plan_rows(cfg, failures),
         "",

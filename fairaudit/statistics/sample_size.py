@@ -389,7 +389,7 @@ def _chunk(inputs: _Inputs, limit: MemoryLimit) -> int:
 
 
 def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float]:
-    """The model the plan assumes: the kernel's rates (contexts, groups), the filter (None without ``epsilon``) and
+    """The model the plan assumes: the kernel's rates (1, groups), the same in every context, the filter (None without ``epsilon``) and
     the true L of the filtered law, in nats (every context has the same rates: L̄ is the same).
 
     The kernel's E[g | x̃, ã] is ``base_rate`` but for group 0's ``base_rate · exp(disparity)``; an InputError
@@ -399,7 +399,7 @@ def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float
     if top > 1:
         problem = f"gives group 0 the rate base_rate * exp(disparity) = {top:.6g} > 1"
         raise InputError("disparity", problem, inputs["disparity"])
-    rates = np.full((inputs["contexts"], inputs["groups"]), inputs["base_rate"])
+    rates = np.full((1, inputs["groups"]), inputs["base_rate"])  # (every context alike: broadcast over them)
     rates[:, 0] = top
     mechanism: Mechanism | None = None
     filtered = rates

@@ -310,3 +310,22 @@ def test_a_floor_at_the_least_utility_binds_where_a_matrix_s_rows_sum_below_1():
     assert exact <= w.local_fairness.ratio <= exact * (1 + 1e-12)
     means = m.matrix @ (w.local_fairness.kernel.probabilities[0] @ np.array([0.3, 1.0, 0.5]))  # E[g | a]
     assert means.min() >= 0.3 * (1 - 1e-12)
+
+
+def test_randomized_response_of_a_billion_groups_is_refused_before_its_witness_is_made():
+    # the closed form is O(1), but the certificate's witness is a point over the k released values: estimated first
+    import tracemalloc
+
+    from fairaudit.worstcase.black_box import WITNESS_BYTES
+
+    with pytest.raises(fa.InputError) as e:
+        fa.black_box_bound(fa.randomized_response(range(10**9), 2.0), utility_class=fa.UtilityClass(tau=0.1))
+    assert str(e.value).startswith("memory: the certificate's witness (a point over the released values) would need ")
+    assert "(1000000000 groups)" in str(e.value) and str(e.value).endswith(
+        "calibrate it instead (calibrate: closed forms, no witness)"
+    )
+    tracemalloc.start()
+    value = fa.black_box_bound(fa.randomized_response(range(10**6), 2.0), utility_class=fa.UtilityClass(tau=0.1)).value
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak <= WITNESS_BYTES * 10**6 and 0 < value <= 2.0  # (g free of the group: L <= epsilon)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from fairaudit.base.errors import InputError, echo
@@ -35,6 +36,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     words = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(words[0] if words else "")  # "": no command named, so none is imported
     args = parser.parse_args(words)
+    main_thread = threading.current_thread() is threading.main_thread()
+    handler = signal.getsignal(signal.SIGINT) if main_thread else None  # (emit ignores Ctrl-C once work is done)
     try:
         check_outputs(args)
         status: int = args.func(args)  # each subcommand's run, set by its add_parser
@@ -55,6 +58,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
             except KeyboardInterrupt:  # one pending since the last line, taken between two steps
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
+        elif handler is not None:  # called in process: the caller's handler back
+            signal.signal(signal.SIGINT, handler)
 
 
 def os_error_line(exc: OSError) -> str:

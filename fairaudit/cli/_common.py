@@ -9,7 +9,9 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 import sys
+import threading
 from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
 from fairaudit.base.checks import number_type
@@ -228,7 +230,13 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def emit(args: argparse.Namespace, text: str, summary: str) -> None:
-    """Write the report to ``--output`` (with ``summary`` on stderr) or to stdout."""
+    """Write the report to ``--output`` (with ``summary`` on stderr) or to stdout.
+
+    The command's work is done: from here on Ctrl-C is ignored (:func:`main` restores the handler when it
+    returns), so that a report renamed into place is never followed by ``interrupted`` and exit status 130.
+    """
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
     if args.output is not None:
         write_atomic(args.output, text)
         print(f"{summary}; report written to {args.output}", file=sys.stderr)

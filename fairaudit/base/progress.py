@@ -9,6 +9,7 @@ shows nothing. tqdm's own ``disable=None`` turns a bar off when stderr is not a 
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -119,7 +120,7 @@ def progress_bar(
     """
     if enabled is None:
         enabled = _SHOWN.get()
-    if not enabled or total == 0:
+    if not enabled or total == 0 or not sys.stderr.isatty():  # (tqdm's disable=None would draw nothing either)
         return _NoBar()
     try:
         from tqdm import tqdm

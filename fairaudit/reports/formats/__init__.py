@@ -7,29 +7,55 @@ intermediate; each :class:`Format` renders them as one string:
 :class:`~fairaudit.reports.formats.markdown.MarkdownFormat` and
 :class:`~fairaudit.reports.formats.html.HtmlFormat` (one self-contained page; its
 libraries, jinja2 and matplotlib, are imported only when it renders).
-:data:`FORMATTERS` maps the name of each (the choices of ``--format``) to an
-instance; :func:`render` turns a report dictionary into the text of a report. Each dictionary follows the JSON
+:data:`FORMATTERS` maps the name of each (the choices of ``--format``) to its module and class, imported
+by :func:`formatter` on first use; :func:`render` turns a report dictionary into the text of a report. Each dictionary follows the JSON
 contract of docs/design.md: infinite values are the string ``"inf"``, NaN is ``null``, tuple labels (product
 attributes) are joined with ``" & "``.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib
+
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats.base import KINDS, Format
-from fairaudit.reports.formats.html import HtmlFormat
-from fairaudit.reports.formats.json import JsonFormat
-from fairaudit.reports.formats.markdown import MarkdownFormat
-from fairaudit.reports.formats.text import TextFormat
 
-__all__ = ["FORMATS", "FORMATTERS", "KINDS", "Format", "render"]
+__all__ = ["FORMATS", "FORMATTERS", "KINDS", "Format", "formatter", "render"]
 
-#: Format name -> format, in the order the command line lists them.
-FORMATTERS: dict[str, Format] = {f.name: f for f in (TextFormat(), JsonFormat(), MarkdownFormat(), HtmlFormat())}
+#: Format name -> its module and class, in the order the command line lists them (imported when it renders:
+#: a text report loads no HTML or Markdown code).
+FORMATTERS: dict[str, tuple[str, str]] = {
+    "text": ("text", "TextFormat"),
+    "json": ("json", "JsonFormat"),
+    "markdown": ("markdown", "MarkdownFormat"),
+    "html": ("html", "HtmlFormat"),
+}
 
 #: The report formats, the choices of ``--format``.
 FORMATS = tuple(FORMATTERS)
+
+
+@functools.cache
+def formatter(name: str) -> Format:
+    """The format named ``name`` (one of :data:`FORMATS`), its module imported on first use.
+
+    Raises
+    ------
+    InputError
+        On an unknown format (naming ``format``).
+
+    Examples
+    --------
+    >>> formatter("text").name
+    'text'
+    """
+    if name not in FORMATTERS:
+        raise InputError("format", f"must be one of {', '.join(FORMATS)}", name)
+    module, cls = FORMATTERS[name]
+    made: Format = getattr(importlib.import_module(f"{__name__}.{module}"), cls)()
+    return made
 
 
 def render(data: Report, kind: str, fmt: str) -> str:
@@ -61,7 +87,4 @@ def render(data: Report, kind: str, fmt: str) -> str:
     ...
     fairaudit.base.errors.InputError: format: must be one of text, json, markdown, html (got 'pdf')
     """
-    formatter = FORMATTERS.get(fmt)
-    if formatter is None:
-        raise InputError("format", f"must be one of {', '.join(FORMATS)}", fmt)
-    return formatter.render(data, kind)
+    return formatter(fmt).render(data, kind)

@@ -331,7 +331,7 @@ def _mismatch(cmd: Command, printed: tuple[str, str], code: int) -> str | None:
 
 def _json_mismatch(shown: str, out: str, err: str, code: int) -> str | None:
     """A JSON report is compared as JSON: every value the page shows equals the printed one, and a key ``"..."``
-    stands for the object's other keys (without it the keys must be the same)."""
+    stands for the object's other keys (without it the keys must be the same), in objects within lists too."""
     if code != 0 or err:
         return f"exit status {code}, stderr:\n{err}"
     want, got = json.loads(shown), json.loads(out)
@@ -344,6 +344,8 @@ def _json_mismatch(shown: str, out: str, err: str, code: int) -> str | None:
             return next(
                 (d for k in w if k != "..." for d in [differ(w[k], g.get(k, KeyError), f"{where}.{k}")] if d), None
             )
+        if isinstance(w, list) and isinstance(g, list) and len(w) == len(g):  # (objects in a list: each in turn)
+            return next((d for i, (a, b) in enumerate(zip(w, g)) for d in [differ(a, b, f"{where}[{i}]")] if d), None)
         return None if w == g else f"{where}: the page shows {w!r}, the report has {g!r}"
 
     return differ(want, got, "report")

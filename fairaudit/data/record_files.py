@@ -216,6 +216,18 @@ def query_progress(con: Any, desc: str) -> Iterator[None]:
     :data:`~fairaudit.base.progress.STEP_DELAY`. DuckDB tracks the progress (``enable_progress_bar``) without
     printing its own bar (``enable_progress_bar_print``, which writes to stdout, where the report goes); a thread
     reads ``query_progress()`` every 0.1 s, and the bar shows the furthest percentage of the block's queries.
+
+    Parameters
+    ----------
+    con : duckdb.DuckDBPyConnection
+        The connection the block's queries run on (its progress setting is turned on where a bar is shown).
+    desc : str
+        The bar's label (``"reading DATA"``).
+
+    Yields
+    ------
+    None
+        The bar is closed, and its reading thread joined, when the block ends, however it ends (Ctrl-C included).
     """
     import threading
 

@@ -250,7 +250,28 @@ def _filter_lines(points: list[dict[str, Any]], attributes: list[str]) -> list[s
 
 
 def law_frame(run: DiscrimEvalRun) -> pd.DataFrame:
-    """The run's law as a long table: scenario, group, decision, probability (``law.csv``, the specs' model)."""
+    """The run's law as a long table (``law.csv``, the model of the specs :mod:`~fairaudit.experiments.discrim_eval_filter` writes).
+
+    Parameters
+    ----------
+    run : DiscrimEvalRun
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``scenario``, ``group``, ``decision``, ``probability``: one row per cell of ``run.law``, shape
+        (contexts × groups × 3, 4), in the law's order; a fill missing from a scenario has probability 0 there.
+
+    Examples
+    --------
+    >>> import math
+    >>> from fairaudit.experiments.discrim_eval import read_rows
+    >>> rows = read_rows("examples/discrim_eval/sample.jsonl")
+    >>> run = run_discrim_eval(rows, lambda reqs: [math.log(0.25)] * len(reqs), coefficients=False)
+    >>> frame = law_frame(run)
+    >>> frame.shape, frame.groupby(["scenario", "group"])["probability"].sum().round(12).unique().tolist()
+    ((48, 4), [1.0])
+    """
     law = run.law
     idx = pd.MultiIndex.from_product([law.contexts, law.groups, law.decisions], names=["scenario", "group", "decision"])
     return pd.Series(law.probabilities.reshape(-1), index=idx, name="probability").reset_index()

@@ -418,8 +418,26 @@ quantiles at ``TAIL`` and 1 − ``TAIL``): what it leaves out is at most 2 · ``
 
 
 def exact_route(inputs: _Inputs) -> bool:
-    """Whether the power is computed exactly (:func:`_order_power`): L (``kind="local"``), no filter, and a
-    frequentist method (``"clopper-pearson"``, or ``"multinomial"``, the same for a binary decision)."""
+    """Whether the power is computed exactly (:func:`_order_power`), not simulated.
+
+    Parameters
+    ----------
+    inputs : dict
+        A plan's checked inputs (``kind``, ``epsilon``, ``method`` are read).
+
+    Returns
+    -------
+    bool
+        True for L (``kind="local"``), no filter (``epsilon`` None) and a frequentist method (``"clopper-pearson"``,
+        or ``"multinomial"``, the same for a binary decision); then ``plan`` simulates no table.
+
+    Examples
+    --------
+    >>> exact_route({"kind": "local", "epsilon": None, "method": "clopper-pearson"})
+    True
+    >>> exact_route({"kind": "global", "epsilon": None, "method": "clopper-pearson"})
+    False
+    """
     return inputs["kind"] == "local" and inputs["epsilon"] is None and inputs["method"] != "bayes"
 
 
@@ -437,7 +455,7 @@ def _order_power(n: int, inputs: _Inputs, rates: FloatArray) -> tuple[float, flo
     (the minimum is m and the maximum at most M_t(m)), and the contexts, alike and independent, multiply: the power
     is its X-th power at t = ``target``, the median the smallest t where that reaches 1/2 (by bisection). The
     decisions ln(hi/lo) ≤ t are the floating-point ones the simulation makes (:meth:`_Certifier.fast`); m and M run
-    over the window of counts :data:`TAIL` leaves.
+    over the window of counts :data:`TAIL` leaves. Proof: ``proofs/intervals.md`` §7.
     """
     from scipy.stats import binom
 

@@ -13,8 +13,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import threading
 from fractions import Fraction
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fairaudit.base.errors import InputError
@@ -88,9 +91,7 @@ def run(args: argparse.Namespace) -> int:
             f"DATA column {args.column!r}", "holds a value that is not among the filter's values", exc.value
         ) from None
     frame[args.column] = _as_column(released, column)
-    write_atomic(args.output, lambda tmp: _write(frame, tmp, args.output), field="--output")
-    if args.parameters:
-        write_atomic(args.parameters, json.dumps(privacy.to_dict(), indent=2) + "\n", field="--parameters")
+    _write_both(args, frame, json.dumps(privacy.to_dict(), indent=2) + "\n")
     eps = "inf" if privacy.epsilon == float("inf") else f"{privacy.epsilon:.6g}"
     twice = [f"{name!r} ({len(copies)} times)" for name, copies in records.columns.items() if len(copies) > 1]
     print(
@@ -156,6 +157,30 @@ def _as_column(released: list[Any], column: pd.Series) -> Any:
         return out.astype(column.dtype)
     except (TypeError, ValueError):
         return out.infer_objects()
+
+
+def _write_both(args: argparse.Namespace, frame: pd.DataFrame, parameters: str) -> None:
+    """``--output`` and ``--parameters`` written together: both or neither.
+
+    Each is written atomically (:func:`~fairaudit.base.files.write_atomic`), the output's write inside the
+    parameters' (their temporary file written first, renamed last): a failure or a Ctrl-C while the records are
+    written leaves neither file changed, and once they are written Ctrl-C is ignored (:func:`~fairaudit.cli.main`
+    restores the handler), so that the two renames are not parted.
+    """
+
+    def output(tmp: str) -> None:
+        _write(frame, tmp, args.output)
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def both(parameters_tmp: str) -> None:
+        Path(parameters_tmp).write_text(parameters, encoding="utf-8")
+        write_atomic(args.output, output, field="--output")
+
+    if args.parameters:
+        write_atomic(args.parameters, both, field="--parameters")
+    else:
+        write_atomic(args.output, output, field="--output")
 
 
 def _write(frame: pd.DataFrame, path: str, output: str) -> None:

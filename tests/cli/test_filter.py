@@ -173,3 +173,53 @@ def test_a_named_pipe_with_a_writer_is_refused_in_one_line_not_read_in_part(caps
         writer.wait()
     assert code == 2 and stdout == "" and err.count("\n") == 1
     assert err.startswith("fairaudit: error: DATA: is a named pipe, not a regular file: DuckDB reads a file more")
+
+
+def _ctrl_c_after(monkeypatch, what):
+    """Send SIGINT to this process right after ``what`` happens (``"records"``: the output's records are written;
+    ``"rename"``: the output is renamed into place)."""
+    import signal
+
+    import fairaudit.cli.filter as command
+
+    if what == "records":
+        written = command._write
+
+        def then_ctrl_c(frame, path, output):
+            written(frame, path, output)
+            os.kill(os.getpid(), signal.SIGINT)
+
+        monkeypatch.setattr(command, "_write", then_ctrl_c)
+    else:
+        replaced = os.replace
+
+        def renamed_then_ctrl_c(src, dst, *args, **kwargs):
+            replaced(src, dst, *args, **kwargs)
+            if str(dst).endswith("out.csv"):
+                os.kill(os.getpid(), signal.SIGINT)
+
+        monkeypatch.setattr(os, "replace", renamed_then_ctrl_c)
+
+
+def test_output_and_parameters_are_written_together_or_not_at_all(capsys, csv_file, tmp_path, monkeypatch):
+    # a Ctrl-C taken inside the records' write: neither file is replaced, no temporary file is left, exit 130
+    out, params = tmp_path / "out.csv", tmp_path / "filter.json"
+    out.write_text("old output\n")
+    params.write_text("old parameters\n")
+    argv = ["filter", csv_file, "--column", "office", "--keep", "3/4", "--values", "HR_1,HR_2", "--output", out,
+            "--parameters", params]  # fmt: skip
+    with monkeypatch.context() as m:
+        _ctrl_c_after(m, "records")
+        code, _, err = run(capsys, *argv)
+    assert (code, err.splitlines()[-1]) == (130, "fairaudit: interrupted")
+    assert (out.read_text(), params.read_text()) == ("old output\n", "old parameters\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["filter.json", "out.csv", "records.csv"]
+    # a Ctrl-C between the output's rename and the parameters': ignored, both written (it used to leave the
+    # new output beside the old parameters, exit 130)
+    with monkeypatch.context() as m:
+        _ctrl_c_after(m, "rename")
+        code, _, err = run(capsys, *argv)
+    assert code == 0 and "released column 'office' of 200 records" in err
+    released(pd.read_csv(out))
+    assert PrivacyFilter.from_dict(json.loads(params.read_text())).keep == 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["filter.json", "out.csv", "records.csv"]

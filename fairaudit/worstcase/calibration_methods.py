@@ -527,18 +527,31 @@ def _scan(
     """The first crossing of ``limit`` on the grid (then beyond it, doubling), refined; ``value(0) = f0`` meets it.
 
     ``monotone``: ``value`` is proved non-decreasing in ε (``proofs/calibration.md``, Proposition 5b), so every ε
-    below the crossing meets the target, and every ε does when ε = +inf does; the reason says which it rests on.
+    below the crossing meets the target, and every ε does when ε = +inf does; the reason says which it rests on. The
+    grid's first crossing is then found by bisection over its points (about log₂ of their number evaluated, not
+    each up to it): for a non-decreasing function it is the same point.
     """
-    lo, f_lo = 0.0, f0
     rising = f"{name} is non-decreasing in epsilon along the family, for a utility free of the group"
     how = rising if monotone else f"first crossing of a {len(grid)}-point scan, refined"
-    found: tuple[float, float, float, float] | None
-    for eps in grid[1:]:  # (the first crossing of the grid, refined below)
-        v = value(float(eps))
-        if not v <= limit:
-            found = (lo, f_lo, float(eps), v)
-            break
-        lo, f_lo = float(eps), v
+    found: tuple[float, float, float, float] | None = None
+    seen = {0: f0}  # grid index -> value
+    if monotone:  # grid[meets] meets the limit; grid[fails] does not (len(grid): none seen to)
+        meets, fails = 0, len(grid)
+        while fails - meets > 1:
+            mid = (meets + fails) // 2
+            seen[mid] = value(float(grid[mid]))
+            meets, fails = (mid, fails) if seen[mid] <= limit else (meets, mid)
+    else:  # (the first crossing of the grid, point by point)
+        fails = len(grid)
+        for i in range(1, len(grid)):
+            seen[i] = value(float(grid[i]))
+            if not seen[i] <= limit:
+                fails = i
+                break
+        meets = fails - 1
+    lo, f_lo = float(grid[meets]), seen[meets]
+    if fails < len(grid):
+        found = (lo, f_lo, float(grid[fails]), seen[fails])
     else:  # no crossing on the grid: beyond it
         top = value(math.inf)
         if top <= limit:

@@ -671,3 +671,26 @@ def test_calibration_above_the_floats_e_epsilon_meets_its_target_to_1e_9(target,
         exact = mpmath.log((r + (1 - r) * p) / (r + (1 - r) * q))
         assert exact <= value <= target  # certified above the exact value, and meeting the target
         assert target - exact <= 1e-9 * target  # the largest epsilon, to 1e-9
+
+
+@pytest.mark.parametrize("crossing", [0.0, 0.3, 2.5, 9.99])
+def test_a_monotone_scan_finds_the_first_crossing_by_bisection(crossing):
+    # a non-decreasing value with its first crossing anywhere on the 64-point grid: bisection over the grid's points
+    # gives what the point-by-point scan gives (the second route), from about log2(64) = 6 points, not up to 64
+    from fairaudit.worstcase.calibration_methods import _scan
+
+    grid = np.linspace(0.0, 10.0, 64)
+    calls: list[float] = []
+
+    def value(eps: float) -> float:
+        calls.append(eps)
+        return 0.0 if eps <= crossing else 1.0 + eps
+
+    scanned = _scan(0.5, 0.5, grid, value, 0.0, "L", monotone=False)
+    scan_calls = len(calls)
+    calls.clear()
+    bisected = _scan(0.5, 0.5, grid, value, 0.0, "L", monotone=True)
+    assert (bisected.epsilon, bisected.bound) == (scanned.epsilon, scanned.bound)
+    first = int(np.argmax(grid > crossing))  # the grid's first point above the crossing
+    refine = scan_calls - first  # the refinement's evaluations, the same after either route
+    assert len(calls) - refine == 6 and abs(bisected.epsilon - crossing) <= 1e-9 * max(1.0, crossing)

@@ -515,9 +515,9 @@ class ExactProgram:
         h.addVars(self.n, floats(self.lower[: self.n], -inf), floats(self.upper[: self.n], inf))
         dense = self._floats
         lo, hi = floats(self.lower[self.n :], -inf), floats(self.upper[self.n :], inf)
-        for i in range(self.m):
-            idx = np.flatnonzero(dense[i]).astype(np.int32)
-            h.addRow(lo[i], hi[i], idx.size, idx, dense[i, idx])
+        rows, cols = np.nonzero(dense)  # (row-major: each row's entries together, in column order)
+        starts = np.searchsorted(rows, np.arange(self.m)).astype(np.int32)
+        h.addRows(self.m, lo, hi, rows.size, starts, cols.astype(np.int32), dense[rows, cols])
         self._highs = h
         return h
 

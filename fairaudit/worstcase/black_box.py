@@ -20,7 +20,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, log_up, product_ends, rounding_error, up, widen_up
-from fairaudit.base.resources import check_memory
+from fairaudit.base.resources import check_memory, memory_limit
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
@@ -57,6 +57,7 @@ def black_box_bound(
     utility_class: UtilityClass | None = None,
     population: Population | None = None,
     method: str = "auto",
+    max_memory: int | str | None = None,
 ) -> BlackBoxCertificate:
     """Exact max of local g-fairness over every decision model behind M_A, for a class of utilities.
 
@@ -91,6 +92,11 @@ def black_box_bound(
         that relaxation (an upper bound) and the search stops when no pair
         left can win. ``lp`` forces the LP (a cross-check); ``threshold``
         raises when τ binds or L_A > 0.
+    max_memory : int or str, optional
+        The memory the certificate's witness may take, bytes or a size such as ``"4G"``; default
+        ``FAIRAUDIT_MAX_MEMORY``, else half the memory available (:func:`fairaudit.base.resources.memory_limit`).
+        Randomized response's witness grows with its k (40 bytes a group, a table of k² with L_A > 0); it is
+        estimated before it is made.
 
     Returns
     -------
@@ -103,7 +109,8 @@ def black_box_bound(
     InputError
         If ``lower``, ``gamma``, ``tau`` or ``lipschitz`` is negative or not
         finite, lower > γ, τ > γ (the class is empty), the metric is invalid,
-        or the method is unknown or does not apply.
+        or the method is unknown or does not apply; with field ``memory`` when the witness would need more than
+        ``max_memory``.
 
     Notes
     -----
@@ -143,7 +150,7 @@ def black_box_bound(
     >>> round(black_box_bound(m, utility_class=UtilityClass(tau=0.5), method="lp").ratio, 7)  # the LP agrees
     1.5714286
     """
-    problem, rr, metric, d = _class_problem(mechanism, utility_class, population, method)
+    problem, rr, metric, d = _class_problem(mechanism, utility_class, population, method, max_memory)
     if problem.gamma > 0 and problem.gamma != 1.0:
         return _on_unit_scale(problem, metric, population)
     lower, gamma, n = problem.lower, problem.gamma, len(mechanism.inputs)
@@ -172,7 +179,11 @@ def black_box_bound(
 
 
 def _class_problem(
-    mechanism: Mechanism, utility_class: UtilityClass | None, population: Population | None, method: str
+    mechanism: Mechanism,
+    utility_class: UtilityClass | None,
+    population: Population | None,
+    method: str,
+    max_memory: int | str | None,
 ) -> tuple[_ClassProblem, RandomizedResponseParameters | None, npt.ArrayLike | None, FloatArray | None]:
     """Check the arguments of :func:`black_box_bound`: the problem, the RR parameters, the metric and its table.
 
@@ -192,7 +203,7 @@ def _class_problem(
         witness = "a table over the groups and released values" if lip > 0 else "a point over the released values"
         need = WITNESS_BYTES * n * (len(mechanism.outputs) if lip > 0 else 1)
         instead = "give fewer groups" if lip > 0 else "calibrate it instead (calibrate: closed forms, no witness)"
-        check_memory(need, f"the certificate's witness ({witness})", f"{n} groups", instead)
+        check_memory(need, f"the certificate's witness ({witness})", f"{n} groups", instead, memory_limit(max_memory))
     d = check_metric(metric, n) if n >= 1 and metric is not None else None
     implied = implied_floor(lower, float(mechanism.row_sums[1].min(initial=1.0)))  # (rows summing to 1 within 1e-9)
     floor = implied if tau is None else max(tau, implied)  # E[g | x, a] >= floor

@@ -329,3 +329,12 @@ def test_randomized_response_of_a_billion_groups_is_refused_before_its_witness_i
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak <= WITNESS_BYTES * 10**6 and 0 < value <= 2.0  # (g free of the group: L <= epsilon)
+
+
+def test_the_witness_memory_limit_is_the_max_memory_given():
+    # the refusal names `max_memory`, which black_box_bound takes (it overrides FAIRAUDIT_MAX_MEMORY)
+    mechanism, utilities = fa.randomized_response(range(10**5), 2.0), fa.UtilityClass(tau=0.1)
+    with pytest.raises(fa.InputError) as e:
+        fa.black_box_bound(mechanism, utility_class=utilities, max_memory="1K")
+    assert "would need 3.81 MiB (100000 groups), more than the limit of 1 KiB (set by `max_memory`)" in str(e.value)
+    assert fa.black_box_bound(mechanism, utility_class=utilities, max_memory="1G").value <= 2.0

@@ -114,7 +114,8 @@ class SimplexOptimum:
 
 class _Basis:
     """A basis of an :class:`ExactProgram`, its vertex and duals solved exactly (python-flint's rational matrices: the
-    products with A are single calls, the basis matrix K one inverse)."""
+    products with A are single calls; the vertex and the duals are two solves with the basis matrix K, and K's inverse
+    is formed only when a pivot asks for its rows and columns)."""
 
     def __init__(self, prog: ExactProgram, status: list[Status], lower: list[Any], upper: list[Any]) -> None:
         self.prog, self.status, self.lower, self.upper = prog, status, lower, upper
@@ -135,20 +136,37 @@ class _Basis:
 
         prog, n, m, flat = self.prog, self.prog.n, self.prog.m, self.prog.flat
         k = len(self.cols)
-        self.inverse = fmpq_mat(k, k, [flat[i * n + j] for i in self.rows for j in self.cols]).inv() if k else None
+        self.matrix = fmpq_mat(k, k, [flat[i * n + j] for i in self.rows for j in self.cols]) if k else None
+        self._inverse: Any = None
         x = [0 if self.status[j] == "basic" else self.at(j) for j in range(n)]
         ax = prog.times(x)
         rhs = [self.at(n + i) - ax[i] for i in self.rows]
-        for j, v in zip(self.cols, self._times(rhs), strict=True):
+        for j, v in zip(self.cols, self._solved(rhs, transposed=False), strict=True):  # (K singular: ZeroDivisionError)
             x[j] = v
         self.x = x
         ax = prog.times(x)
         self.r = [ax[i] if self.status[n + i] == "basic" else self.at(n + i) for i in range(m)]
         self.y: list[Any] = [0] * m
-        for i, v in zip(self.rows, self._times_transposed([prog.c[j] for j in self.cols]), strict=True):
+        for i, v in zip(self.rows, self._solved([prog.c[j] for j in self.cols], transposed=True), strict=True):
             self.y[i] = v
         ya = prog.transposed_times(self.y)
         self.d = [c - t for c, t in zip(prog.c, ya, strict=True)]
+
+    def _solved(self, v: Sequence[Any], transposed: bool) -> list[Any]:
+        """K⁻¹ v, or K⁻ᵀ v (``transposed``), by one exact solve (no inverse)."""
+        if self.matrix is None:
+            return []
+        from flint import fmpq_mat
+
+        k = self.matrix.transpose() if transposed else self.matrix
+        return list(k.solve(fmpq_mat(len(v), 1, list(v))).entries())
+
+    @property
+    def inverse(self) -> Any:
+        """K⁻¹ (None for an empty basis), formed on first use: the pivots' directions and rates."""
+        if self._inverse is None and self.matrix is not None:
+            self._inverse = self.matrix.inv()
+        return self._inverse
 
     def _times(self, v: Sequence[Any]) -> list[Any]:
         """K⁻¹ v."""

@@ -166,9 +166,10 @@ class MinMaxRatio:
             return 1.0
         if np.any(W @ hi <= 0):  # some group is always 0 while another can be positive
             return math.inf
-        pairwise = max(1.0, float(pair_floors(W, lo, hi).max()))
-        value = self.lp(W, lo, hi)
-        return max(pairwise, 1.0 if value is None else value)
+        value = self.lp(W, lo, hi)  # the exact optimum, rounded down: at least every pair's floor
+        if value is None:  # (not proved optimal: the pairs' floors, in closed form, are a valid lower end)
+            return max(1.0, float(pair_floors(W, lo, hi).max()))
+        return max(1.0, value)
 
 
 def pair_floors(W: FloatArray, lo: FloatArray, hi: FloatArray) -> FloatArray:

@@ -23,7 +23,7 @@ from .laws.closed_forms import (
     split_by_keep,
 )
 from .laws.composition import compose
-from .laws.families import MechanismFamily, product_family, randomized_response_family
+from .laws.families import MechanismFamily, epsilon_scale, product_family, randomized_response_family
 from .laws.mechanisms import Mechanism, from_matrix, identity, product
 from .laws.tables import Kernel, Law, Population
 from .laws.utilities import Utility, UtilityClass, from_function, from_table, indicator
@@ -76,6 +76,7 @@ __all__ = [
     "UtilityClass",
     "compose",
     "epsilon_from_keep_probability",
+    "epsilon_scale",
     "from_function",
     "from_matrix",
     "from_table",

@@ -18,7 +18,9 @@ from fairaudit.laws.families import MechanismFamily, product_family, product_row
 from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
 
 if TYPE_CHECKING:
-    from fairaudit.certification.spec_schema import FamilySpec, MechanismSpec
+    import numpy.typing as npt
+
+    from fairaudit.certification.spec_schema import FamilySpec, MechanismSpec, WeightedInput
 
 __all__ = [
     # building them
@@ -107,13 +109,16 @@ def mechanism_family(spec: MechanismSpec, groups: tuple) -> MechanismFamily | No
 
 
 def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> MechanismFamily:
-    """The family of a ``[privacy.family]`` table: its product of randomized responses on the rows ``inputs``.
+    """The family of a ``[privacy.family]`` table: its product of randomized responses on the rows ``inputs``, or
+    on the mixtures of rows ``mixtures``.
 
     The product splits ε in proportion to its components' ε (equally when
     they are all 0 or infinite), as :func:`mechanism_family` does for a
-    product; its rows ``inputs`` are the sensitive groups, its outputs those
-    of ``[privacy.sensitive]`` in the product's order, and ε is rescaled so
-    that each member's ε is ε (:func:`fairaudit.laws.families.product_rows_family`).
+    product; its rows ``inputs`` (or each group's weighted rows ``mixtures``)
+    are the sensitive groups, its outputs those of ``[privacy.sensitive]`` in
+    the product's order, and ε is rescaled so that each member's ε is ε
+    (:func:`fairaudit.laws.families.product_rows_family`: in closed form on
+    rows, by root finding on mixtures).
 
     Parameters
     ----------
@@ -133,20 +138,25 @@ def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> Mechanism
     ------
     InputError
         Under ``field``: a component with fewer than 2 values, an input that is not one of the product's, outputs
-        of another number, or a family that does not pass through ``mechanism``.
+        of another number, mixtures of another number than the groups or that no member separates beyond a finite
+        ε, or a family that does not pass through ``mechanism``.
     """
     eps = [_component_epsilon(c) for c in spec.components]
     finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
     values = [c.values or [] for c in spec.components]  # (every component has values: FamilySpec checks it)
-    rows, name = [tuple(r) for r in spec.inputs], spec.name or mechanism.name
+    if spec.mixtures is not None and len(spec.mixtures) != len(mechanism.inputs):
+        problem = f"needs one mixture per group ({len(mechanism.inputs)}, the inputs of [privacy.sensitive])"
+        raise InputError(f"{field}.mixtures", problem, len(spec.mixtures))
+    rows, mixture = (spec.inputs, None) if spec.inputs is not None else _mixture(spec.mixtures or [])
     try:
         family = product_rows_family(
             *values,
-            rows=rows,
+            rows=[tuple(r) for r in rows],
             inputs=mechanism.inputs,
             outputs=mechanism.outputs,
             weights=eps if finite else None,
-            name=name,
+            name=spec.name or mechanism.name,
+            mixture=mixture,
         )
     except InputError as exc:
         raise exc.under(field) from None
@@ -155,6 +165,19 @@ def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> Mechanism
         problem = f"does not pass through the mechanism of [privacy.sensitive] at its epsilon {mechanism.epsilon:.6g}"
         raise InputError(field, problem + " (largest difference of a cell)", gap)
     return family
+
+
+def _mixture(mixtures: list[list[WeightedInput]]) -> tuple[list[list], npt.NDArray[np.float64] | None]:
+    """The distinct rows of ``mixtures`` in order of appearance and W[group, row] (None when W is the identity: each
+    group is its own row, in closed form)."""
+    rows: list[list] = []  # (labels may be lists: compared, not hashed)
+    for mix in mixtures:
+        rows += [m.input for m in mix if m.input not in rows]
+    w = np.zeros((len(mixtures), len(rows)))
+    for g, mix in enumerate(mixtures):
+        for m in mix:
+            w[g, rows.index(m.input)] += m.weight
+    return rows, None if w.shape == (len(rows),) * 2 and np.array_equal(w, np.eye(len(rows))) else w
 
 
 def _component_epsilon(spec: MechanismSpec) -> float:

@@ -109,15 +109,24 @@ class MechanismSpec(StrictModel):
         return self
 
 
+class WeightedInput(StrictModel):
+    """One entry of a group's mixture in ``[privacy.family] mixtures``: a product's input and its weight."""
+
+    weight: Number = Field(ge=0)
+    input: list[Any]
+
+
 class FamilySpec(StrictModel):
     """``[privacy.family]``: the family calibration moves along, a product of randomized responses seen on some rows.
 
-    ``components`` are randomized responses (values, and epsilon or keep: the split of ε, as a product's), ``inputs``
-    the product's input each sensitive value is, in the order of ``[sensitive] values``.
+    ``components`` are randomized responses (values, and epsilon or keep: the split of ε, as a product's); each
+    sensitive value, in the order of ``[sensitive] values``, is one of the product's inputs (``inputs``) or a
+    weighted mixture of them (``mixtures``: weights non-negative, summing to 1 to 1e-9).
     """
 
     components: list[MechanismSpec]
-    inputs: list[list[Any]]
+    inputs: list[list[Any]] | None = None
+    mixtures: list[list[WeightedInput]] | None = None
     name: str | None = None
 
     @model_validator(mode="after")
@@ -125,9 +134,19 @@ class FamilySpec(StrictModel):
         for i, c in enumerate(self.components):
             if c.mechanism != "randomized_response" or c.values is None:
                 raise FieldProblem(f".components[{i}]", "must be a randomized_response with values", c.mechanism)
-        for i, row in enumerate(self.inputs):
+        if (self.inputs is None) == (self.mixtures is None):
+            raise ValueError("give exactly one of inputs (one row per group) and mixtures (weighted rows per group)")
+        n = f"needs one value per component ({len(self.components)})"
+        for i, row in enumerate(self.inputs or []):
             if len(row) != len(self.components):
-                raise FieldProblem(f".inputs[{i}]", f"needs one value per component ({len(self.components)})", row)
+                raise FieldProblem(f".inputs[{i}]", n, row)
+        for i, mix in enumerate(self.mixtures or []):
+            weights = [m.weight for m in mix]
+            if not abs(sum(weights) - 1) <= 1e-9:
+                raise FieldProblem(f".mixtures[{i}]", "weights must sum to 1 (to 1e-9)", weights)
+            for j, m in enumerate(mix):
+                if len(m.input) != len(self.components):
+                    raise FieldProblem(f".mixtures[{i}][{j}].input", n, m.input)
         return self
 
 

@@ -21,7 +21,7 @@ from fairaudit import InputError, number, write_atomic
 
 from ._markdown import experiment_markdown
 from .harness import paper_queries_needed, table_queries_needed
-from .slots import point_views, slot_names, true_prompts
+from .slots import slot_names, true_prompts, view_mixtures
 from .vlm.tasks import UNPARSED
 
 if TYPE_CHECKING:
@@ -187,8 +187,9 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
 
 def _family_lines(analysis: ExperimentAnalysis, point: PointResult) -> list[str]:
     """``[privacy.family]`` of :func:`experiment_spec`: M_cand as a product of randomized responses on the rows of
-    the views the candidates are always shown with, so that ``fairaudit calibrate --spec`` moves along it; none
-    for a design that mixes views (M_cand is then no such product).
+    the true views the candidates are shown with (``inputs``: the one view of each, in a point-mass design; else
+    ``mixtures``: each candidate's views weighted by how often the design shows them), so that ``fairaudit
+    calibrate --spec`` moves along it.
 
     The product has one component per slot (the candidate's own first, then its rivals' in the order of its view)
     and attribute, randomized response at the point's ε of that attribute: calibration splits ε in their
@@ -196,21 +197,30 @@ def _family_lines(analysis: ExperimentAnalysis, point: PointResult) -> list[str]
     have equally many values.
     """
     t = analysis.task
-    views = point_views(t, analysis.positions)
-    if views is None:
-        return []
+    mixtures = view_mixtures(t, analysis.positions)
     j = json.dumps
     eps = [e if np.isfinite(e) else "inf" for e in point.filter.epsilon_attributes]
     component = ", ".join(
         f'{{mechanism = "randomized_response", values = {j(list(a.values))}, epsilon = {e}}}'
         for a, e in zip(t.attributes, eps)
     )
-    rows = [[v for i in views[t.profiles.index(tuple(c))] for v in t.profiles[i]] for c in t.candidates]
+
+    def row(view: tuple[int, ...]) -> list:
+        return [v for i in view for v in t.profiles[i]]
+
+    groups = [mixtures[t.profiles.index(tuple(c))] for c in t.candidates]
+    if all(len(views) == 1 for views in groups):
+        rows = f"inputs = {j([row(next(iter(views))) for views in groups])}"
+    else:
+        mixed = (
+            "[" + ", ".join(f"{{weight = {j(w)}, input = {j(row(v))}}}" for v, w in m.items()) + "]" for m in groups
+        )
+        rows = "mixtures = [\n  " + ",\n  ".join(mixed) + "\n]"
     return [
         "[privacy.family]",
         f"name = {j(point.mechanism.name)}",
         "components = [\n  " + ",\n  ".join([component] * t.slots) + "\n]",
-        f"inputs = {j(rows)}",
+        rows,
         "",
     ]
 

@@ -38,11 +38,11 @@ __all__ = [
     "epsilon_from_keep",
     "expected_utility",
     "outcome_index",
-    "point_views",
     "position_split",
     "slot_names",
     "true_prompts",
     "view_label",
+    "view_mixtures",
 ]
 
 MAX_SHOWN_CELLS = 2_000_000
@@ -398,30 +398,46 @@ def candidate_mechanism(task: DeliveryTask, profile: Mechanism, positions: str =
     )
 
 
-def point_views(task: DeliveryTask, positions: str = "balanced") -> dict[int, tuple[int, ...]] | None:
-    """The one view each candidate is always shown with, truthfully (profile index -> rotated prompt); None for mixtures.
+def view_mixtures(task: DeliveryTask, positions: str = "balanced") -> dict[int, dict[tuple[int, ...], float]]:
+    """The true views each candidate is shown with, and their probabilities.
 
-    A *point-mass* design: every candidate always faces the same rivals in the
-    same places from its own slot on, as the paper's Tom and Mary.
+    A view is a true prompt rotated to start at the candidate's slot; its
+    probability is pooled over the slots the candidate takes. The row of
+    :func:`candidate_mechanism` of a candidate is the mixture, with these
+    weights, of what the filter releases from its views. A *point-mass*
+    design has one view per candidate: it always faces the same rivals in
+    the same places from its own slot on, as the paper's Tom and Mary.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    positions : {"balanced", "latin", "fixed"}
+
+    Returns
+    -------
+    dict
+        Profile index of each candidate -> {view (tuple of k profile indices, its own first): P(view | candidate)}.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> view_mixtures(HR_DELIVERY)                      # Tom (0) always with Mary (7), and Mary with Tom
+    {0: {(0, 7): 1.0}, 7: {(7, 0): 1.0}}
     """
-    if task.population == "all":
-        return None
     k = task.slots
-    prompts, _, _, groups = _slot_group(task, positions)
-    views: dict[int, set[tuple[int, ...]]] = {g: set() for g in groups}
+    prompts, w, _, groups = _slot_group(task, positions)
+    views: dict[int, dict[tuple[int, ...], float]] = {g: {} for g in groups}
     for i in range(k):
-        for t in prompts[:, _rotation(k, i)]:
-            views[int(t[0])].add(tuple(int(x) for x in t))
-    if any(len(v) != 1 for v in views.values()):
-        return None
-    return {g: next(iter(v)) for g, v in views.items()}
+        for t, p in zip(prompts[:, _rotation(k, i)].tolist(), w.tolist()):
+            views[t[0]][tuple(t)] = views[t[0]].get(tuple(t), 0.0) + p
+    return {g: {v: p / sum(d.values()) for v, p in d.items()} for g, d in views.items()}
 
 
 def candidate_epsilon(task: DeliveryTask, attribute_epsilons: tuple, positions: str = "balanced") -> float | None:
     """ε(M_cand) in closed form when attribute i is released at ε_i (nats); None for mixtures (compute the matrix).
 
     ``"all"``: Σ ε_i (the rivals carry nothing about the candidate). A
-    point-mass design (:func:`point_views`): the largest, over two
+    point-mass design (:func:`view_mixtures`): the largest, over two
     candidates, of Σ ε_i over the attribute values in which their views
     differ (each differing value multiplies the likelihood ratio by at most
     e^{ε_i}, attained together at one shown cell).
@@ -443,13 +459,15 @@ def candidate_epsilon(task: DeliveryTask, attribute_epsilons: tuple, positions: 
 def _view_differences(task: DeliveryTask, positions: str) -> npt.NDArray[np.intp] | None:
     """For every two candidates of a point-mass design, in how many slots their views differ in each attribute.
 
-    Shape (n_pairs, n_attributes); None for mixtures (:func:`point_views`).
+    Shape (n_pairs, n_attributes); None for ``"all"`` and for mixtures (:func:`view_mixtures`).
     """
-    views = point_views(task, positions)
-    if views is None:
+    if task.population == "all":
+        return None
+    views = view_mixtures(task, positions)
+    if any(len(v) != 1 for v in views.values()):
         return None
     profiles = np.asarray([[task.attributes[j].values.index(v) for j, v in enumerate(p)] for p in task.profiles])
-    cells = np.asarray(list(views.values()), dtype=np.int64)  # (candidates, k): the profile in each slot of the view
+    cells = np.asarray([next(iter(v)) for v in views.values()], dtype=np.int64)  # (candidates, k): each one's view
     a, b = np.triu_indices(len(cells), k=1)
     shown_a, shown_b = profiles[cells[a]], profiles[cells[b]]  # (pairs, k, attributes)
     return np.sum(shown_a != shown_b, axis=1)

@@ -7,6 +7,7 @@ Proof of the facts used here: ``proofs/privacy.md``.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Callable, Hashable, Sequence
@@ -24,6 +25,7 @@ from fairaudit.laws.mechanisms import Mechanism, product
 
 __all__ = [
     "MechanismFamily",
+    "epsilon_scale",
     "product_family",
     "product_rows_family",
     "randomized_response_family",
@@ -215,21 +217,26 @@ def product_rows_family(
     outputs: Sequence[Hashable] | None = None,
     weights: Sequence[float] | None = None,
     name: str | None = None,
+    mixture: npt.ArrayLike | None = None,
 ) -> MechanismFamily:
-    """A product of randomized responses seen on some of its inputs only, with ε rescaled so each member's ε is ε.
+    """A product of randomized responses seen on some of its inputs only, or on mixtures of them, with ε rescaled so
+    each member's ε is ε.
 
     What a candidate's prompt shows about it when it always faces the same
     rivals is such a view: randomized response on every attribute of every
     profile shown, on the rows of the tuples the candidates are shown with
-    (docs/design.md, "k candidates behind a filter"). Component i gets
-    w_i ε / c (Σ w_i = 1), where c is the largest sum of the shares of the
-    components on which two kept rows differ: the kept rows' ε is then ε
-    (each differing component multiplies the likelihood ratio by at most
-    e^{w_i ε / c}, attained together at one output). A smaller member is the
-    larger post-processed on the outputs, so certificates are non-decreasing
-    along it; ``mixing`` is False (mixing the kept rows does not give a
-    smaller member). Only the kept rows are built: memory is
-    len(rows) × Π k_i, not its square.
+    (docs/design.md, "k candidates behind a filter"); when it faces several,
+    it is the mixture of those rows (``mixture``) the design draws. Component
+    i gets w_i t / c (Σ w_i = 1), where c is the largest sum of the shares
+    of the components on which two kept rows differ. Without ``mixture``,
+    t = ε: the kept rows' ε is then ε (each differing component multiplies
+    the likelihood ratio by at most e^{w_i ε / c}, attained together at one
+    output). With a mixture, t solves ε(M_t) = ε (:func:`epsilon_scale`). A
+    smaller member is the larger post-processed on the outputs, so ε(M_t) is
+    non-decreasing in t and certificates along the family are too;
+    ``mixing`` is False (mixing the kept rows does not give a smaller
+    member). Only the kept rows are built: memory is len(rows) × Π k_i, not
+    its square.
 
     Parameters
     ----------
@@ -238,25 +245,29 @@ def product_rows_family(
     rows : sequence of sequences, length ≥ 2
         The product's inputs kept (one value per component each), distinct.
     inputs : sequence of hashable
-        Their labels (the sensitive groups), one per row.
+        Their labels (the sensitive groups), one per row; with ``mixture``, one per row of ``mixture``.
     outputs : sequence of hashable, optional
         Labels of the Π k_i outputs in ``itertools.product`` order (default the tuples).
     weights : sequence of float, optional
         Non-negative shares of ε, as :func:`product_family`'s; equal by default.
     name : str, optional
+    mixture : array_like, shape (len(inputs), len(rows)), optional
+        W[a, r]: the probability that input a is row r (each row of W non-negative, summing to 1 to 1e-9; it is
+        normalised). The member is W · (the kept rows). None: input a is row a.
 
     Returns
     -------
     MechanismFamily
-        ε ↦ the kept rows, shape (len(rows), Π k_i), ε(M_ε) = ε; its keep probability is the chance that a row's
-        own tuple is released, Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
+        ε ↦ the kept rows (or their mixtures), shape (len(inputs), Π k_i), ε(M_ε) = ε; its keep probability is the
+        chance that a row's own tuple is released, Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
 
     Raises
     ------
     InputError
         As :func:`product_family`; field ``rows``: fewer than 2, not distinct, a value not in its component's
         alphabet, or rows that differ only where the weights are 0 (no budget to spend); field ``inputs`` or
-        ``outputs``: the wrong number of labels.
+        ``outputs``: the wrong number of labels; field ``mixture``: of another shape, a row that is not a
+        distribution, or inputs whose mixtures stay within a finite ε at every t (the family cannot reach every ε).
 
     Examples
     --------
@@ -266,6 +277,14 @@ def product_rows_family(
     ...                           rows=[("Tom", 25, "Mary", 55), ("Mary", 55, "Tom", 25)], inputs=["Tom", "Mary"])
     >>> round(fam(2.0).epsilon, 12), fam(2.0).matrix.shape, fam.keep_probability(float("inf"))
     (2.0, (2, 16), 1.0)
+
+    Three names, each shown with the other two in either order (a mixture of two rows each, as ``balanced``):
+
+    >>> names = ["Emily", "Lakisha", "Jorge"]
+    >>> rows = [(a, b, c) for a in names for b in names for c in names if len({a, b, c}) == 3]
+    >>> fam = product_rows_family(names, names, names, rows=rows, inputs=names, mixture=np.kron(np.eye(3), [0.5, 0.5]))
+    >>> round(fam(1.0).epsilon, 12), fam(1.0).matrix.shape
+    (1.0, (3, 27))
     """
     full = product_family(*values, weights=weights)  # (its checks: the alphabets and the weights)
     alphabets = [as_labels(v, f"values[{i}]") for i, v in enumerate(values)]
@@ -280,7 +299,8 @@ def product_rows_family(
             "rows", f"each must be an input of the product: one value of each of its {len(alphabets)} alphabets", bad
         ) from None
     labels = as_labels(inputs, "inputs")
-    if len(labels) != len(kept):
+    w_mix = None if mixture is None else _mixture(mixture, len(labels), len(kept))
+    if w_mix is None and len(labels) != len(kept):
         raise InputError("inputs", f"needs one label per kept row ({len(kept)})", list(labels))
     sizes = [len(a) for a in alphabets]
     out = full.inputs if outputs is None else as_labels(outputs, "outputs")
@@ -294,19 +314,93 @@ def product_rows_family(
     label = name or f"{full.name} on {len(kept)} of its inputs"
     n = len(kept)
 
-    def split(eps: float) -> list[float]:
-        return [float(w) * eps / scale if w > 0 else 0.0 for w in shares]
+    def split(t: float) -> list[float]:
+        return [float(w) * t / scale if w > 0 else 0.0 for w in shares]
 
-    def build(eps: float) -> Mechanism:
+    def at(t: float) -> Mechanism:
         matrix = np.ones((n, 1))
-        for e, k, col in zip(split(eps), sizes, index.T):
+        for e, k, col in zip(split(t), sizes, index.T):
             keep = keep_of_checked(e, k)
             part = np.full((n, k), keep * math.exp(-e))  # 1 / (e^ε + k − 1), without 1 − p's cancellation
             part[np.arange(n), col] = keep
             matrix = (matrix[:, :, None] * part[:, None, :]).reshape(n, -1)
-        return Mechanism(matrix, labels, out, name=label)
+        return Mechanism(matrix if w_mix is None else w_mix @ matrix, labels, out, name=label)
+
+    if w_mix is not None and math.isfinite(reach := at(math.inf).epsilon):
+        problem = f"the inputs' mixtures stay within epsilon {reach:.6g} at every scale: no member reaches more"
+        raise InputError("mixture", problem, w_mix.tolist())
+    t_of = epsilon_scale(lambda t: at(t).epsilon, 1.0 if w_mix is None else None)  # the kept rows: ε(M_t) = t
 
     def keep(eps: float) -> float:
-        return float(np.prod([keep_of_checked(e, k) for e, k in zip(split(eps), sizes)]))
+        return float(np.prod([keep_of_checked(e, k) for e, k in zip(split(t_of(eps)), sizes)]))
 
-    return MechanismFamily(label, labels, build, keep)
+    return MechanismFamily(label, labels, lambda eps: at(t_of(eps)), keep)
+
+
+def _mixture(mixture: npt.ArrayLike, n_inputs: int, n_rows: int) -> npt.NDArray[np.float64]:
+    """W of :func:`product_rows_family`, checked (shape, rows distributions to 1e-9) and normalised."""
+    w = as_float_array(mixture, "mixture", ndim=2)
+    if w.shape != (n_inputs, n_rows):
+        raise InputError("mixture", f"needs shape (inputs, rows) = ({n_inputs}, {n_rows})", w.shape)
+    total = w.sum(axis=1)
+    if np.any(w < 0) or not np.all(np.isfinite(w)) or not np.all(np.abs(total - 1) <= 1e-9):
+        raise InputError("mixture", "each row must be non-negative and sum to 1 (to 1e-9)", w.tolist())
+    return w / total[:, None]
+
+
+def epsilon_scale(epsilon_at: Callable[[float], float], factor: float | None = None) -> Callable[[float], float]:
+    """The map ε ↦ the scale t ≥ 0 at which a one-parameter mechanism M_t has ε(M_t) = ε.
+
+    With ``factor`` c (ε(M_t) = c t for every t): t = ε / c in closed form
+    (+inf for c = 0). Without, t solves ``epsilon_at(t)`` = ε by Brent's
+    method (:func:`scipy.optimize.brentq`, to 1e-13) on a bracket grown by
+    doubling from ε and halving towards 0; 0 and +inf map to themselves, and
+    an ε beyond ``epsilon_at`` (1e6) to +inf. The answers are cached (the
+    last 4096).
+
+    Parameters
+    ----------
+    epsilon_at : callable
+        t ↦ ε(M_t) (nats), non-decreasing in t ≥ 0 with ε(M_0) = 0: true
+        when M_t at a smaller t is a post-processing of the one at a larger
+        (randomized responses at a common scale, and mixtures of their
+        products, ``proofs/privacy.md``).
+    factor : float, optional
+        The constant ratio ε(M_t) / t when there is one.
+
+    Returns
+    -------
+    callable
+        ε (nats, ≥ 0, +inf allowed) ↦ t.
+
+    Examples
+    --------
+    >>> epsilon_scale(lambda t: 2 * t, 2.0)(3.0)
+    1.5
+    >>> round(epsilon_scale(lambda t: math.log1p(t))(math.log(3.0)), 12)     # ln(1 + t) = ln 3
+    2.0
+    """
+    if factor is not None:
+        c = float(factor)
+        return lambda eps: eps / c if c > 0 else math.inf
+
+    @functools.lru_cache(maxsize=4096)
+    def solve(eps: float) -> float:
+        if eps == 0 or math.isinf(eps):
+            return eps
+        from scipy.optimize import brentq
+
+        def gap(t: float) -> float:
+            return epsilon_at(t) - eps
+
+        hi = eps
+        while gap(hi) < 0:
+            hi *= 2
+            if hi > 1e6:
+                return math.inf
+        lo = hi / 2
+        while gap(lo) > 0 and lo > 1e-12:
+            lo /= 2
+        return float(brentq(gap, lo, hi, xtol=1e-13, rtol=1e-13))
+
+    return solve

@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from scipy.optimize import brentq
 
 import fairaudit as fa
+from fairaudit import InputError, from_matrix
 from fairaudit.laws.closed_forms import keep_probability
 from fairaudit.laws.families import product_family, product_rows_family, randomized_response_family
 
@@ -82,3 +84,33 @@ def test_product_rows_family_is_the_products_rows_at_its_rescaled_epsilon(eps):
     assert member.inputs == ("r", "s") and member.outputs == full.outputs
     assert member.epsilon == pytest.approx(eps, rel=1e-12, abs=1e-12)
     assert fam.keep(eps) == pytest.approx(product_family(*values, weights=[1, 2, 1]).keep(4 * eps / 3), rel=1e-12)
+
+
+@given(st.floats(0.05, 20.0))
+def test_product_rows_family_of_mixtures_mixes_the_products_rows(eps):
+    # r is (a, 1, x) or (a, 2, x), s is (b, 3, x): the member at eps is W times the full product's rows at the t where
+    # that mixture's epsilon is eps (found here by the product family and brentq, not by the family).
+    values = (["a", "b"], [1, 2, 3], ["x", "y"])
+    rows = [("a", 1, "x"), ("a", 2, "x"), ("b", 3, "x")]
+    mixture = [[0.25, 0.75, 0.0], [0.0, 0.0, 1.0]]
+    fam = product_rows_family(*values, rows=rows, inputs=["r", "s"], weights=[1, 2, 1], mixture=mixture)
+    full = product_family(*values, weights=[1, 2, 1])
+
+    def at(t):
+        return np.asarray(mixture) @ full(t).matrix[[full.inputs.index(r) for r in rows]]
+
+    t = brentq(lambda t: from_matrix(at(t), ["r", "s"], full.inputs).epsilon - eps, eps, 10 * eps, xtol=1e-14)
+    np.testing.assert_allclose(fam(eps).matrix, at(t), rtol=1e-10, atol=1e-300)
+    assert fam(eps).epsilon == pytest.approx(eps, rel=1e-10)
+
+
+def test_product_rows_family_checks_its_mixture():
+    values, rows = (["a", "b"], ["x", "y"]), [("a", "x"), ("b", "y")]
+    for mixture, problem in (
+        ([[1.0, 0.0]], r"mixture: needs shape \(inputs, rows\) = \(2, 2\) \(got \(1, 2\)\)"),
+        ([[1.5, -0.5], [0.0, 1.0]], "mixture: each row must be non-negative and sum to 1"),
+        ([[0.5, 0.4], [0.0, 1.0]], "mixture: each row must be non-negative and sum to 1"),
+        ([[0.5, 0.5], [0.5, 0.5]], "mixture: the inputs' mixtures stay within epsilon 0 at every scale"),
+    ):
+        with pytest.raises(InputError, match=problem):
+            product_rows_family(*values, rows=rows, inputs=["r", "s"], mixture=mixture)

@@ -13,17 +13,16 @@ deployable filter, a :class:`fairaudit.PrivacyFilter` per attribute and one on t
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from fairaudit import (
     Mechanism,
     MechanismFamily,
     PrivacyFilter,
+    epsilon_scale,
     identity,
     keep_probability,
     product,
@@ -246,6 +245,7 @@ class TaskFilter:
 
         Examples
         --------
+        >>> import math
         >>> from fairaudit.experiments.taskfile import HR_DELIVERY
         >>> f = TaskFilter.from_epsilon(HR_DELIVERY, math.inf)                   # no filter: shown as they are
         >>> f.release("sick leave", HR_DELIVERY.candidates) == ("sick leave", tuple(HR_DELIVERY.candidates))
@@ -305,30 +305,11 @@ def profile_budget(task: DeliveryTask, positions: str = "balanced") -> Callable[
     1.5
     """
     factor = epsilon_factor(task, positions)
-    if factor is not None:
-        c = float(factor)
-        return lambda eps: eps / c if c > 0 else math.inf
 
-    @functools.lru_cache(maxsize=4096)
-    def solve(eps: float) -> float:
-        if eps == 0 or math.isinf(eps):
-            return eps
+    def epsilon_at(e: float) -> float:
+        return candidate_mechanism_epsilon(task, TaskFilter.from_epsilon(task, e).profile_mechanism.matrix, positions)
 
-        def gap(e: float) -> float:
-            m_p = TaskFilter.from_epsilon(task, e).profile_mechanism.matrix
-            return candidate_mechanism_epsilon(task, m_p, positions) - eps
-
-        hi = eps
-        while gap(hi) < 0:
-            hi *= 2
-            if hi > 1e6:
-                return math.inf
-        lo = hi / 2
-        while gap(lo) > 0 and lo > 1e-12:
-            lo /= 2
-        return float(brentq(gap, lo, hi, xtol=1e-13, rtol=1e-13))
-
-    return solve
+    return epsilon_scale(epsilon_at, None if factor is None else float(factor))
 
 
 def _nats(eps: float, name: str) -> float:

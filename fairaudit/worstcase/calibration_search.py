@@ -7,6 +7,7 @@ bisection), :func:`bracket` grows one, and :func:`keep_grid` is the white-box sc
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 
@@ -80,10 +81,12 @@ def bracket(
         hi = min(2 * hi, EPS_MAX)
 
 
+@functools.lru_cache(maxsize=8)
 def keep_grid(family: MechanismFamily) -> FloatArray:
     """The white-box scan: 32 values of ε evenly spaced in [0, cap], 32 more evenly spaced in keep probability.
 
-    cap is 50 nats, or less: where the keep probability reaches 1 − 1e-12.
+    cap is 50 nats, or less: where the keep probability reaches 1 − 1e-12. The grid (read-only) is kept for the last
+    8 families (by identity): a certificate calibrates L and L̄ along the same one.
     """
 
     def keep(e: float) -> float:
@@ -102,4 +105,6 @@ def keep_grid(family: MechanismFamily) -> FloatArray:
     half = GRID // 2
     points = set(np.linspace(0.0, cap, half).tolist())
     points.update(reaching(p, cap, 80) for p in np.linspace(keep(0.0), keep(cap), half + 2)[1:-1])
-    return np.array(sorted(points))
+    grid = np.array(sorted(points))
+    grid.flags.writeable = False
+    return grid

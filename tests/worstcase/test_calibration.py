@@ -694,3 +694,15 @@ def test_a_monotone_scan_finds_the_first_crossing_by_bisection(crossing):
     first = int(np.argmax(grid > crossing))  # the grid's first point above the crossing
     refine = scan_calls - first  # the refinement's evaluations, the same after either route
     assert len(calls) - refine == 6 and abs(bisected.epsilon - crossing) <= 1e-9 * max(1.0, crossing)
+
+
+def test_the_white_box_grid_is_made_once_per_family():
+    # certify calibrates L and L-bar along one family: its grid (2,500 evaluations of the keep probability) is kept,
+    # read-only, for the second; the grid itself is the one made afresh (a second route: the function uncached)
+    from fairaudit.worstcase.calibration_search import keep_grid
+
+    family = fa.randomized_response_family(["a", "b", "c"])
+    grid = keep_grid(family)
+    assert keep_grid(family) is grid and not grid.flags.writeable
+    np.testing.assert_array_equal(grid, keep_grid.__wrapped__(family))
+    assert len(grid) == 64 and grid[0] == 0.0 and np.all(np.diff(grid) > 0)

@@ -736,11 +736,16 @@ def test_interval_options_are_values_and_their_settings_reach_the_result():
 def test_min_max_ratio_falls_back_on_the_pairwise_floor_where_the_lp_is_not_proved(monkeypatch):
     # disjoint cells: the floor max(1, max_a lo_a / min_a hi_a) = 0.5 / 0.3 is the exact min-max ratio, by hand; the LP
     # gives it where it is proved optimal, the closed-form floor where it is not (its value None)
+    import fairaudit.metrics.box_extremes as box
     from fairaudit.metrics.box_extremes import MinMaxRatio
 
     W, lo, hi = np.eye(3), np.array([0.2, 0.5, 0.1]), np.array([0.3, 0.6, 0.4])
     program = MinMaxRatio(3, 3)
-    assert program.solve(W, lo, hi) == pytest.approx(0.5 / 0.3, rel=1e-15)
+    floors = box.pair_floors
+    with monkeypatch.context() as m:  # the LP proved optimal: no pair's floor is computed (O(A^2 n log n) of work)
+        m.setattr(box, "pair_floors", lambda *a: pytest.fail("the floors were computed beside an optimal LP"))
+        assert program.solve(W, lo, hi) == pytest.approx(0.5 / 0.3, rel=1e-15)
+    assert float(floors(W, lo, hi).max()) == pytest.approx(0.5 / 0.3, rel=1e-15)
     monkeypatch.setattr(MinMaxRatio, "lp", lambda self, W, lo, hi: None)
     assert program.solve(W, lo, hi) == pytest.approx(0.5 / 0.3, rel=1e-15)
     assert program.solve(W, lo, np.array([0.6, 0.6, 0.6])) == 1.0  # the boxes overlap: parity is reachable

@@ -114,8 +114,8 @@ class SimplexOptimum:
 
 class _Basis:
     """A basis of an :class:`ExactProgram`, its vertex and duals solved exactly (python-flint's rational matrices: the
-    products with A are single calls; the vertex and the duals are two solves with the basis matrix K, and K's inverse
-    is formed only when a pivot asks for its rows and columns)."""
+    products with A are single calls; K⁻¹ v and K⁻ᵀ v, the vertex, the duals and a pivot's directions and rates, are
+    exact solves with the basis matrix K, never its inverse)."""
 
     def __init__(self, prog: ExactProgram, status: list[Status], lower: list[Any], upper: list[Any]) -> None:
         self.prog, self.status, self.lower, self.upper = prog, status, lower, upper
@@ -137,7 +137,6 @@ class _Basis:
         prog, n, m, flat = self.prog, self.prog.n, self.prog.m, self.prog.flat
         k = len(self.cols)
         self.matrix = fmpq_mat(k, k, [flat[i * n + j] for i in self.rows for j in self.cols]) if k else None
-        self._inverse: Any = None
         x = [0 if self.status[j] == "basic" else self.at(j) for j in range(n)]
         ax = prog.times(x)
         rhs = [self.at(n + i) - ax[i] for i in self.rows]
@@ -161,29 +160,6 @@ class _Basis:
         k = self.matrix.transpose() if transposed else self.matrix
         return list(k.solve(fmpq_mat(len(v), 1, list(v))).entries())
 
-    @property
-    def inverse(self) -> Any:
-        """K⁻¹ (None for an empty basis), formed on first use: the pivots' directions and rates."""
-        if self._inverse is None and self.matrix is not None:
-            self._inverse = self.matrix.inv()
-        return self._inverse
-
-    def _times(self, v: Sequence[Any]) -> list[Any]:
-        """K⁻¹ v."""
-        if self.inverse is None:
-            return []
-        from flint import fmpq_mat
-
-        return list((self.inverse * fmpq_mat(len(v), 1, list(v))).entries())
-
-    def _times_transposed(self, v: Sequence[Any]) -> list[Any]:
-        """K⁻ᵀ v."""
-        if self.inverse is None:
-            return []
-        from flint import fmpq_mat
-
-        return list((fmpq_mat(1, len(v), list(v)) * self.inverse).entries())
-
     def value(self, v: int) -> Any:
         n = self.prog.n
         return self.x[v] if v < n else self.r[v - n]
@@ -197,9 +173,9 @@ class _Basis:
         """The change of every basic variable per unit increase of the nonbasic variable ``v``."""
         prog, n = self.prog, self.prog.n
         if v < n:
-            dx = [-t for t in self._times([prog.flat[i * n + v] for i in self.rows])]
+            dx = [-t for t in self._solved([prog.flat[i * n + v] for i in self.rows], transposed=False)]
         else:
-            dx = self._times([1 if i == v - n else 0 for i in self.rows])
+            dx = self._solved([1 if i == v - n else 0 for i in self.rows], transposed=False)
         step: list[Any] = [0] * n
         for j, t in zip(self.cols, dx, strict=True):
             step[j] = t
@@ -215,12 +191,11 @@ class _Basis:
     def row_rates(self, b: int) -> dict[int, Any]:
         """∂(basic variable ``b``)/∂(nonbasic v) for every nonbasic v: one row of the basis inverse times N."""
         prog, n = self.prog, self.prog.n
-        if b < n:
-            assert self.inverse is not None
-            k = self.cols.index(b)
-            w = [-self.inverse[k, c] for c in range(self.inverse.ncols())]
+        if b < n:  # row k of K⁻¹: K⁻ᵀ e_k
+            unit = [int(j == b) for j in self.cols]
         else:
-            w = [-t for t in self._times_transposed([prog.flat[(b - n) * n + j] for j in self.cols])]
+            unit = [prog.flat[(b - n) * n + j] for j in self.cols]
+        w = [-t for t in self._solved(unit, transposed=True)]
         weights: list[Any] = [0] * prog.m
         for i, t in zip(self.rows, w, strict=True):
             weights[i] = t

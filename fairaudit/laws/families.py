@@ -222,21 +222,15 @@ def product_rows_family(
     """A product of randomized responses seen on some of its inputs only, or on mixtures of them, with ε rescaled so
     each member's ε is ε.
 
-    What a candidate's prompt shows about it when it always faces the same
-    rivals is such a view: randomized response on every attribute of every
-    profile shown, on the rows of the tuples the candidates are shown with
-    (docs/design.md, "k candidates behind a filter"); when it faces several,
-    it is the mixture of those rows (``mixture``) the design draws. Component
-    i gets w_i t / c (Σ w_i = 1), where c is the largest sum of the shares
-    of the components on which two kept rows differ. Without ``mixture``,
-    t = ε: the kept rows' ε is then ε (each differing component multiplies
-    the likelihood ratio by at most e^{w_i ε / c}, attained together at one
-    output). With a mixture, t solves ε(M_t) = ε (:func:`epsilon_scale`). A
-    smaller member is the larger post-processed on the outputs, so ε(M_t) is
-    non-decreasing in t and certificates along the family are too;
-    ``mixing`` is False (mixing the kept rows does not give a smaller
-    member). Only the kept rows are built: memory is len(rows) × Π k_i, not
-    its square.
+    What a candidate's prompt shows about it when it always faces the same rivals is such a view: randomized response
+    on every attribute of every profile shown, on the rows of the tuples the candidates are shown with (docs/design.md,
+    "k candidates behind a filter"); when it faces several, it is the mixture of those rows (``mixture``) the design
+    draws. Component i gets w_i t / c (Σ w_i = 1), where c is the largest sum of the shares of the components on which
+    two kept rows differ. Without ``mixture``, t = ε: the kept rows' ε is then ε (each differing component multiplies
+    the likelihood ratio by at most e^{w_i ε / c}, attained together at one output). With a mixture, t solves
+    ε(M_t) = ε (:func:`epsilon_scale`). A smaller member is the larger post-processed on the outputs, so ε(M_t) is
+    non-decreasing in t and certificates along the family are too; ``mixing`` is False (mixing the kept rows does not
+    give a smaller member). Only the kept rows are built: memory is len(rows) × Π k_i, not its square.
 
     Parameters
     ----------

@@ -93,10 +93,8 @@ def black_box_bound(
         left can win. ``lp`` forces the LP (a cross-check); ``threshold``
         raises when τ binds or L_A > 0.
     max_memory : int or str, optional
-        The memory the certificate's witness may take, bytes or a size such as ``"4G"``; default
-        ``FAIRAUDIT_MAX_MEMORY``, else half the memory available (:func:`fairaudit.base.resources.memory_limit`).
-        Randomized response's witness grows with its k (40 bytes a group, a table of k² with L_A > 0); it is
-        estimated before it is made.
+        Bytes (or ``"4G"``) the witness may take, estimated first (k-ary RR: 40 bytes a group, k² with L_A > 0);
+        default :func:`~fairaudit.base.resources.memory_limit`'s.
 
     Returns
     -------
@@ -107,23 +105,19 @@ def black_box_bound(
     Raises
     ------
     InputError
-        If ``lower``, ``gamma``, ``tau`` or ``lipschitz`` is negative or not
-        finite, lower > γ, τ > γ (the class is empty), the metric is invalid,
-        or the method is unknown or does not apply; with field ``memory`` when the witness would need more than
-        ``max_memory``.
+        If ``lower``, ``gamma``, ``tau`` or ``lipschitz`` is negative or not finite, lower > γ, τ > γ (the class is
+        empty), the metric is invalid, or the method is unknown or does not apply; field ``memory``: the witness
+        would exceed ``max_memory``.
 
     Notes
     -----
-    M_X drops out, and under X ⊥ A the value also bounds L̄ exactly. It is
-    never larger than the tight and paper bounds with the same τ, L_A and
-    metric; with lower = 0, no τ and L_A = 0 it is ε(M_A) (the corollary is
-    attained). ``proofs/black_box.md``.
+    M_X drops out, and under X ⊥ A the value also bounds L̄ exactly. It is never larger than the tight and paper bounds
+    with the same τ, L_A and metric; with lower = 0, no τ and L_A = 0 it is ε(M_A) (the corollary is attained).
+    ``proofs/black_box.md``.
 
-    With L_A = 0 only the pairs of groups that can reach the maximum are
-    solved: with lower = 0 and no τ the rows that can reach ε(M_A), found
-    in O(nm); otherwise one pass over the pairs (O(n²m) time, O(nm) memory)
-    sets the others aside by exact upper bounds (``proofs/black_box.md``
-    §7). The result is that of solving every pair.
+    With L_A = 0 only the pairs of groups that can reach the maximum are solved: with lower = 0 and no τ the rows
+    that can reach ε(M_A), found in O(nm); otherwise one pass over the pairs (O(n²m) time, O(nm) memory) sets the
+    others aside by exact upper bounds (``proofs/black_box.md`` §7). The result is that of solving every pair.
 
     For k-ary randomized response (the mechanism
     :func:`~fairaudit.laws.closed_forms.randomized_response` returns) every pair is

@@ -229,14 +229,21 @@ def check_outputs(args: argparse.Namespace) -> None:
                 raise InputError(f"--{out}", f"is the input {name.upper()}: writing there would replace it", path)
 
 
+def work_done() -> None:
+    """From here on Ctrl-C is ignored (in the main thread; :func:`~fairaudit.cli.main` restores the handler when the
+    command returns): what the command has done is being written, and a write is not parted or followed by
+    ``interrupted`` and exit status 130."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def emit(args: argparse.Namespace, text: str, summary: str) -> None:
     """Write the report to ``--output`` (with ``summary`` on stderr) or to stdout.
 
     The command's work is done: from here on Ctrl-C is ignored (:func:`main` restores the handler when it
     returns), so that a report renamed into place is never followed by ``interrupted`` and exit status 130.
     """
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    work_done()
     if args.output is not None:
         write_atomic(args.output, text)
         print(f"{summary}; report written to {args.output}", file=sys.stderr)

@@ -13,9 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
-import threading
 from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -23,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 from fairaudit.base.errors import InputError
 from fairaudit.base.files import write_atomic
 
-from ._common import COMMANDS, Subparsers, add_text_format, columns, nonneg, text_format
+from ._common import COMMANDS, Subparsers, add_text_format, columns, nonneg, text_format, work_done
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -170,8 +168,7 @@ def _write_both(args: argparse.Namespace, frame: pd.DataFrame, parameters: str) 
 
     def output(tmp: str) -> None:
         _write(frame, tmp, args.output)
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        work_done()
 
     def both(parameters_tmp: str) -> None:
         Path(parameters_tmp).write_text(parameters, encoding="utf-8")

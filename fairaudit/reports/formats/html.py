@@ -184,8 +184,7 @@ class HtmlFormat(Format):
                 page.p(f"... and {len(d['contexts']) - len(shown)} more contexts (all in --format json).")
             page.h2("E[g | x, a] per context and group")
             page.figure(lambda: _cells_figure(d), _cells_caption(d))
-        if sections.audit_notes(d):
-            page.bullets(sections.audit_notes(d))
+        page.bullets(sections.audit_notes(d))
         if "by_context" in d:
             page.h2("L by context")
             page.table(sections.BY_CONTEXT_HEAD, sections.by_context_table(d), numeric=(1, 2, 3))

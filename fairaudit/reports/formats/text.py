@@ -36,8 +36,7 @@ class TextFormat(Format):
         if "calibration" in d:
             lines += sections.calibration_sentences(d["calibration"], plain=True)
         lines.append("assumptions:")
-        for a in d["assumptions"]:
-            lines.append(f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})")
+        lines += [f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})" for a in d["assumptions"]]
         lines.append(f"certified: {'yes' if d['certified'] else 'no'}")
         return "\n".join(lines) + "\n"
 
@@ -108,8 +107,8 @@ def worst_case_text(d: Report) -> str:
         w = d[key]
         lines.append(f"worst utility for {name}: {_utility_line(d, w['utility'])}")
         lines.append(
-            f"  {name} = {sections.nats(w['value'])}, ratio {sections.fmt(w['ratio'])}{sections.pair(w)}; method {w['method']}"
-            + (f" ({w['reason']})" if w.get("reason") else "")
+            f"  {name} = {sections.nats(w['value'])}, ratio {sections.fmt(w['ratio'])}{sections.pair(w)}; "
+            f"method {w['method']}" + (f" ({w['reason']})" if w.get("reason") else "")
         )
     u = d["spec_utility"]
     lines.append(
@@ -178,28 +177,28 @@ def _unparsed_line(d: Report) -> str:
         return ""
     lo, hi = u["range"]
     return (
-        f"unparsed decision {u['decision']!s}: calibrated on the upper end of {sections.measure(d)} over every utility of it "
-        f"in [{sections.fmt(lo)}, {sections.fmt(hi)}], chosen per cell of the model, not on its stated utility\n"
+        f"unparsed decision {u['decision']!s}: calibrated on the upper end of {sections.measure(d)} over every "
+        f"utility of it in [{sections.fmt(lo)}, {sections.fmt(hi)}], chosen per cell of the model, not on its stated "
+        "utility\n"
     )
 
 
 def _bound_lines(d: Report) -> list[str]:
     """The bounds on L for any model behind the filter, each with its details, then the best valid one."""
-    lines = ["bounds on L for any decision model behind the filter:"]
-    for name, value, detail in sections.bound_rows(d):
-        lines.append(f"  {name:<30} {value}{' ' + detail if detail else ''}")
-    lines.append(f"  best valid bound: {sections.nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
-    return lines
+    return [
+        "bounds on L for any decision model behind the filter:",
+        *(f"  {name:<30} {value}{' ' + detail if detail else ''}" for name, value, detail in sections.bound_rows(d)),
+        f"  best valid bound: {sections.nats(d['bounds']['best'])} ({d['bounds']['best_form']})",
+    ]
 
 
 def _observed_lines(o: Report, head: str) -> list[str]:
     """The observed metrics under ``head``: value, where it is attained and its interval; notes; exclusions."""
-    lines = [head]
-    for name, value, detail, at, iv in sections.metric_rows(o):
-        lines.append(
-            f"  {name:<28} {value:<18}{' ' + detail if detail else ''}{f' ({at})' if at else ''}"
-            f"{f'  interval {iv}' if iv else ''}"
-        )
+    lines = [head] + [
+        f"  {name:<28} {value:<18}{' ' + detail if detail else ''}{f' ({at})' if at else ''}"
+        f"{f'  interval {iv}' if iv else ''}"
+        for name, value, detail, at, iv in sections.metric_rows(o)
+    ]
     notes, excluded, more = sections.observed_notes(o)
     lines += [f"  intervals: {n}" for n in notes] + [f"  excluded: {e}" for e in excluded]
     return lines + ([f"  ... and {more} more exclusions"] if more else [])

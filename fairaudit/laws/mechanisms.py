@@ -507,8 +507,8 @@ class Mechanism:
     def describe(self) -> str:
         """One line: name, alphabet size, ε and keep probability."""
         keep = self.keep_probability
-        eps = "inf" if math.isinf(self.epsilon) else f"{self.epsilon:.6g}"
-        text = f"{self.name} on {len(self.inputs)} values, epsilon = {eps} nats"
+        # (:.6g writes an infinite epsilon as "inf")
+        text = f"{self.name} on {len(self.inputs)} values, epsilon = {self.epsilon:.6g} nats"
         if keep is not None:
             text += f", keep probability {keep:.6g}"
         return text

@@ -575,16 +575,11 @@ def population_for(law: _DecisionTable, population: object = None) -> Population
         return default_population(law)
     if not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
-    if not population.context_labels.same(law.context_labels):
-        raise InputError(
-            "population contexts",
-            f"must match the law's contexts {list(map(format_label, law.contexts))}",
-            list(map(format_label, population.contexts)),
-        )
-    if not population.group_labels.same(law.group_labels):
-        raise InputError(
-            "population groups",
-            f"must match the law's groups {list(map(format_label, law.groups))}",
-            list(map(format_label, population.groups)),
-        )
+    for axis, ours, theirs in zip(("contexts", "groups"), law._labels, population._labels):
+        if not theirs.same(ours):
+            raise InputError(
+                f"population {axis}",
+                f"must match the law's {axis} {list(map(format_label, ours.tuple))}",
+                list(map(format_label, theirs.tuple)),
+            )
     return population

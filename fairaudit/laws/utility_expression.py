@@ -159,7 +159,6 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int]] = {
 }
 """The allowed functions: name → (function, fewest arguments, most arguments). ``log`` is the natural logarithm."""
 
-_NAMES = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//", ast.Mod: "%", ast.Pow: "**"}
 _REFUSED_OPERATORS = {
     ast.BitAnd: "&",
     ast.BitOr: "|",
@@ -223,7 +222,7 @@ class _Checker:
             if node.id != "u":
                 raise self.refuse(f"name '{node.id}'")
         elif isinstance(node, ast.BinOp):
-            if type(node.op) not in _NAMES:
+            if type(node.op) not in OPERATORS:  # (its binary operators: + - * / // % **)
                 raise self.refuse(f"operator '{_REFUSED_OPERATORS.get(type(node.op), type(node.op).__name__)}'")
             self.check(node.left, deeper)
             self.check(node.right, deeper)

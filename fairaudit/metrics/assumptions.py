@@ -112,16 +112,9 @@ def assumptions_for(
     law: Law | None,
 ) -> tuple[Assumption, ...]:
     """:func:`check_assumptions` of the constants τ and γ themselves (None: a constant the bound does not use)."""
-    out = []
-    eps = mechanism.epsilon
-    eps_text = "inf" if math.isinf(eps) else f"{eps:.6g}"
-    out.append(
-        Assumption(
-            "M_A is differentially private",
-            "checked",
-            f"exact privacy profile of {mechanism.name}; pure epsilon = {eps_text} nats",
-        )
-    )
+    # (:.6g writes an infinite epsilon as "inf")
+    profile = f"exact privacy profile of {mechanism.name}; pure epsilon = {mechanism.epsilon:.6g} nats"
+    out = [Assumption("M_A is differentially private", "checked", profile)]
     if population is None:
         out.append(Assumption("X independent of A", "vouched", "no population given; needed for L-bar only", "global"))
     else:
@@ -139,12 +132,8 @@ def assumptions_for(
         if utility is None:
             out.append(Assumption("g <= gamma", "vouched", f"gamma = {gamma:g}; no utility table given"))
         else:
-            ok = utility.gamma <= gamma + 1e-12
-            out.append(
-                Assumption(
-                    "g <= gamma", "checked" if ok else "violated", f"max g = {utility.gamma:g}, gamma = {gamma:g}"
-                )
-            )
+            status = "checked" if utility.gamma <= gamma + 1e-12 else "violated"
+            out.append(Assumption("g <= gamma", status, f"max g = {utility.gamma:g}, gamma = {gamma:g}"))
     if tau is not None:
         if law is None or utility is None:
             out.append(Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"))
@@ -154,11 +143,6 @@ def assumptions_for(
             e = expected_utility(law, utility)
             low = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
             status = "vouched" if low >= tau - 1e-12 else "violated"
-            out.append(
-                Assumption(
-                    "E[g | x, a] >= tau for every model",
-                    status,
-                    f"tau = {tau:g}; the observed model has min E[g | x, a] = {low:.6g}",
-                )
-            )
+            detail = f"tau = {tau:g}; the observed model has min E[g | x, a] = {low:.6g}"
+            out.append(Assumption("E[g | x, a] >= tau for every model", status, detail))
     return tuple(out)

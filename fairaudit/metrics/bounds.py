@@ -541,17 +541,13 @@ def corollary_bound(
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
     assumptions = list(assumptions_for(mechanism, None, None, utility, population, law))
-    if utility is not None:
-        dep = utility.depends_on_group
-        assumptions.append(
-            Assumption(
-                "g independent of the group",
-                "violated" if dep else "checked",
-                "g(u, x, a) differs between groups" if dep else "g does not depend on a",
-            )
-        )
+    if utility is None:
+        status, detail = "vouched", "no utility table given"
+    elif utility.depends_on_group:
+        status, detail = "violated", "g(u, x, a) differs between groups"
     else:
-        assumptions.append(Assumption("g independent of the group", "vouched", "no utility table given"))
+        status, detail = "checked", "g does not depend on a"
+    assumptions.append(Assumption("g independent of the group", status, detail))
     eps = mechanism.epsilon
     return Bound(
         form="corollary",

@@ -156,16 +156,13 @@ def excluded_contexts(law: Law, population: Population | None, present: BoolArra
     Left out: contexts with P(X = x) = 0 (when a population is given), the empty cells of the law, and
     contexts where fewer than two groups are ``present``.
     """
-    notes = []
     if population is None:
-        keep = np.ones(law.shape[0], dtype=bool)
+        notes, keep = [], np.ones(law.shape[0], dtype=bool)
     else:
         keep = population.p_context == 0
-        for i in np.flatnonzero(keep):
-            notes.append(f"context {format_label(law.context_labels[i])!r}: P(X = x) = 0")
+        notes = [f"context {format_label(law.context_labels[i])!r}: P(X = x) = 0" for i in np.flatnonzero(keep)]
         np.logical_not(keep, out=keep)  # in place: the contexts with P(X = x) > 0 (one new array, not three)
-    for x, a in law.empty_cells:
-        notes.append(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records")
+    notes += [f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records" for x, a in law.empty_cells]
     if len(law.groups) >= 2 and not law.complete:  # (a complete law has every group in every context)
         for i in np.flatnonzero(keep & (present.sum(axis=1) < 2)):
             notes.append(f"context {format_label(law.context_labels[i])!r}: fewer than two groups with records")

@@ -31,46 +31,8 @@ from typing import TYPE_CHECKING, Any
 
 from fairaudit.base.errors import optional_modules
 from fairaudit.base.json_values import Report
+from fairaudit.reports.formats import sections
 from fairaudit.reports.formats.base import Format
-from fairaudit.reports.formats.sections import (
-    ASSUMPTION_HEAD,
-    BOUND_HEAD,
-    BOUNDS,
-    BY_CONTEXT_HEAD,
-    GAP_HEAD,
-    GAP_NOTE,
-    OBSERVED_PARTS,
-    OUTCOME_HEAD,
-    PLAN_HEAD,
-    TARGET_HEAD,
-    assumption_rows,
-    audit_facts,
-    audit_notes,
-    bound_rows,
-    by_context_table,
-    calibration_sentences,
-    certificate_facts,
-    count,
-    counts_sentence,
-    fmt,
-    gap_rows,
-    impact_notes,
-    impact_tables,
-    impact_title,
-    metric_table,
-    nats,
-    observed_notes,
-    outcome_rows,
-    outcomes_more,
-    plan_head,
-    plan_rows,
-    published_notes,
-    published_tables,
-    record_rows,
-    records,
-    sentence,
-    target_rows,
-)
 from fairaudit.reports.formats.text import calibration_text, worst_case_text
 
 if TYPE_CHECKING:
@@ -156,12 +118,12 @@ class HtmlFormat(Format):
         """The certificate's content (as the text report) with a figure of the bounds against the observed L."""
         page = _Page(f"fairaudit certificate: {d['title'] or d['spec']}")
         page.verdict(bool(d["certified"]), f"Certified: {'yes' if d['certified'] else 'no'}")
-        page.facts(certificate_facts(d))
+        page.facts(sections.certificate_facts(d))
         page.h2("Bounds on L for any decision model behind the filter")
-        page.table(BOUND_HEAD, bound_rows(d), numeric=(1,))
-        page.p(f"Best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']}).")
+        page.table(sections.BOUND_HEAD, sections.bound_rows(d), numeric=(1,))
+        page.p(f"Best valid bound: {sections.nats(d['bounds']['best'])} ({d['bounds']['best_form']}).")
         page.figure(lambda: _bounds_figure(d), _bounds_caption(d))
-        for key, head in OBSERVED_PARTS:
+        for key, head in sections.OBSERVED_PARTS:
             if key in d:
                 page.h2(head)
                 _observed(page, d[key], counts=key == "observed")
@@ -170,66 +132,66 @@ class HtmlFormat(Format):
                 page.p(f"Left out: {d['observed_omitted']}")
         if "targets" in d:
             page.h2("Targets")
-            page.table(TARGET_HEAD, target_rows(d["targets"]), numeric=(1, 2, 4))
+            page.table(sections.TARGET_HEAD, sections.target_rows(d["targets"]), numeric=(1, 2, 4))
         if "calibration" in d:
             page.h2("Calibration")
-            for sentence in calibration_sentences(d["calibration"]):
+            for sentence in sections.calibration_sentences(d["calibration"]):
                 page.p(sentence)
         page.h2("Assumptions")
-        page.table(ASSUMPTION_HEAD, assumption_rows(d))
+        page.table(sections.ASSUMPTION_HEAD, sections.assumption_rows(d))
         return page.render()
 
     def audit(self, d: Report) -> str:
         """The audit's content (as the text report), the cells' table and figures of E[g | a] and E[g | x, a]."""
         if "published" in d:  # fairaudit audit --published: the checked table alone
             page = _Page("A published bias audit, checked")
-            for title, head, published_rows in published_tables(d):
+            for title, head, published_rows in sections.published_tables(d):
                 page.h2(title)
                 page.table(head, published_rows, numeric=(1, 2, 3, 4, 5, 6))
-            page.bullets(published_notes(d))
+            page.bullets(sections.published_notes(d))
             return page.render()
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after
-            page = _Page(impact_title(d))
-            for name, head, impact_rows in impact_tables(d):
+            page = _Page(sections.impact_title(d))
+            for name, head, impact_rows in sections.impact_tables(d):
                 page.h2(f"Impact ratios by {name}")
                 page.table(head, impact_rows, numeric=(1, 2, 3, head.index("p-value")))
-            page.bullets(impact_notes(d))
-            page.h2(f"The audit: {records(d)}")
+            page.bullets(sections.impact_notes(d))
+            page.h2(f"The audit: {sections.records(d)}")
         else:
-            page = _Page(f"fairaudit audit: {records(d)}")
-        page.facts(audit_facts(d), code=("utility",))
+            page = _Page(f"fairaudit audit: {sections.records(d)}")
+        page.facts(sections.audit_facts(d), code=("utility",))
         page.h2("Metrics")
         _observed(page, d)
         page.h2("Records and E[g | a] per group")
         means = group_means(d)
         rows = [
-            (label, n, fmt(m), None if iv is None else f"[{fmt(iv[0])}, {fmt(iv[1])}]") for label, n, m, iv in means
+            (label, n, sections.fmt(m), None if iv is None else f"[{sections.fmt(iv[0])}, {sections.fmt(iv[1])}]")
+            for label, n, m, iv in means
         ]
         width = 4 if any(iv is not None for *_, iv in means) else 3  # the interval's column where there is one
         page.table(("group", "records", "E[g | a]", "interval")[:width], [r[:width] for r in rows], numeric=(1, 2))
         page.figure(lambda: _groups_figure(d, means), _groups_caption(d))
         if "outcome_values" in d:
             page.h2("Records per outcome value")
-            page.table(OUTCOME_HEAD, outcome_rows(d), numeric=(1, 2))
-            if outcomes_more(d):
-                page.p(f"{outcomes_more(d)}.")
+            page.table(sections.OUTCOME_HEAD, sections.outcome_rows(d), numeric=(1, 2))
+            if sections.outcomes_more(d):
+                page.p(f"{sections.outcomes_more(d)}.")
         if len(d["contexts"]) > 1:
             page.h2("Records per context")
             shown = d["contexts"][:CONTEXTS_LISTED]
-            page.table(("context", "records"), record_rows(shown), numeric=(1,))
+            page.table(("context", "records"), sections.record_rows(shown), numeric=(1,))
             if len(d["contexts"]) > len(shown):
                 page.p(f"... and {len(d['contexts']) - len(shown)} more contexts (all in --format json).")
             page.h2("E[g | x, a] per context and group")
             page.figure(lambda: _cells_figure(d), _cells_caption(d))
-        if audit_notes(d):
-            page.bullets(audit_notes(d))
+        page.bullets(sections.audit_notes(d))
         if "by_context" in d:
             page.h2("L by context")
-            page.table(BY_CONTEXT_HEAD, by_context_table(d), numeric=(1, 2, 3))
+            page.table(sections.BY_CONTEXT_HEAD, sections.by_context_table(d), numeric=(1, 2, 3))
         if "gaps_on_g" in d:
             page.h2("Gaps of g")
-            page.table(GAP_HEAD, gap_rows(d), numeric=(1,))
-            page.p(GAP_NOTE + ".")
+            page.table(sections.GAP_HEAD, sections.gap_rows(d), numeric=(1,))
+            page.p(sections.GAP_NOTE + ".")
         _cells_table(page, d)
         return page.render()
 
@@ -250,21 +212,21 @@ class HtmlFormat(Format):
     def plan(self, d: Report) -> str:
         """The question and the assumed model, a table of the methods and why a method found no n."""
         page = _Page("fairaudit plan")
-        for line in plan_head(d):
-            page.p(sentence(line))
-        page.table(PLAN_HEAD, plan_rows(d), numeric=(1, 2, 3, 4, 5))
+        for line in sections.plan_head(d):
+            page.p(sections.sentence(line))
+        page.table(sections.PLAN_HEAD, sections.plan_rows(d), numeric=(1, 2, 3, 4, 5))
         page.bullets([f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]])
         return page.render()
 
 
 def _observed(page: _Page, o: Report, counts: bool = False) -> None:
     """The observed metrics' table, then (with ``counts``) what the intervals certify, the notes and exclusions."""
-    head, rows = metric_table(o)
+    head, rows = sections.metric_table(o)
     page.table(head, rows, numeric=(1,))
-    found = counts_sentence(o) if counts else None
+    found = sections.counts_sentence(o) if counts else None
     if found is not None:
-        page.p(sentence(found))
-    notes, excluded, more = observed_notes(o)
+        page.p(sections.sentence(found))
+    notes, excluded, more = sections.observed_notes(o)
     if notes:
         page.p("Notes on the intervals:")
         page.bullets(notes)
@@ -281,10 +243,10 @@ def _cells_table(page: _Page, d: Report) -> None:
     head = ["context", "group", "records", "E[g | x, a]"] + (["interval"] if with_iv else [])
     rows = []
     for c in cells[:CELLS_SHOWN]:
-        row: list[object] = [c["context"], c["group"], count(c["n"]), fmt(c["expected_utility"])]
+        row: list[object] = [c["context"], c["group"], sections.count(c["n"]), sections.fmt(c["expected_utility"])]
         if with_iv:
             iv = c.get("interval")
-            row.append(None if iv is None or iv[0] is None else f"[{fmt(iv[0])}, {fmt(iv[1])}]")
+            row.append(None if iv is None or iv[0] is None else f"[{sections.fmt(iv[0])}, {sections.fmt(iv[1])}]")
         rows.append(row)
     page.table(head, rows, numeric=(2, 3))
     if len(cells) > CELLS_SHOWN:
@@ -393,12 +355,12 @@ def _bounds_figure(d: Report) -> Figure:
 
     fig = _new_figure(7.0, 5.0)
     ax = fig.add_subplot()
-    values = on_scale([_num(d["bounds"][k]) for k, _ in BOUNDS]).tolist()  # beyond 1e300: at the top, as +inf
+    values = on_scale([_num(d["bounds"][k]) for k, _ in sections.BOUNDS]).tolist()  # beyond 1e300: at the top, as +inf
     lines = [(label, float(on_scale([v])[0]), style) for label, v, style in _bound_lines(d)]
     ends = [v for v in values if math.isfinite(v)] + [v for _, v, _ in lines if math.isfinite(v)]
     ends += [v for v in on_scale(_observed_interval(d)) if math.isfinite(v)]
     top = max(1.15 * max(ends, default=0.0), 0.1)
-    for i, ((key, _), v) in enumerate(zip(BOUNDS, values)):
+    for i, ((key, _), v) in enumerate(zip(sections.BOUNDS, values)):
         if math.isnan(v):
             ax.text(i, 0.02 * top, "n/a", ha="center", va="bottom", fontsize=9, color="0.35")
             continue
@@ -418,17 +380,25 @@ def _bounds_figure(d: Report) -> Figure:
         if math.isinf(v):
             mark_infinite(ax, [i], _BOUND_COLOURS[key])
         else:
-            ax.text(i, v, fmt(v, 4), ha="center", va="bottom", fontsize=8, zorder=5)
+            ax.text(i, v, sections.fmt(v, 4), ha="center", va="bottom", fontsize=8, zorder=5)
     for label, v, style in lines:
         where = " (+∞, drawn at the top)" if math.isinf(v) else ""
         ax.axhline(min(v, 0.98 * top), label=label + where, zorder=4, **style)
     lo, hi = _observed_interval(d)
     if math.isfinite(lo) and math.isfinite(hi):
-        ax.axhspan(lo, hi, color="0.55", alpha=0.25, lw=0, zorder=1, label=f"its interval [{fmt(lo)}, {fmt(hi)}]")
+        ax.axhspan(
+            lo,
+            hi,
+            color="0.55",
+            alpha=0.25,
+            lw=0,
+            zorder=1,
+            label=f"its interval [{sections.fmt(lo)}, {sections.fmt(hi)}]",
+        )
     names = ["paper\n(main theorem)", "tight\n(its proof)", "black-box\n(exact)", "corollary\n(ε)"]
-    names = [n + ("\n[best]" if k == d["bounds"].get("best_form") else "") for n, (k, _) in zip(names, BOUNDS)]
-    ax.set_xticks(range(len(BOUNDS)), labels=names, fontsize=9)
-    ax.set_xlim(-0.6, len(BOUNDS) - 0.4)
+    names = [n + ("\n[best]" if k == d["bounds"].get("best_form") else "") for n, (k, _) in zip(names, sections.BOUNDS)]
+    ax.set_xticks(range(len(sections.BOUNDS)), labels=names, fontsize=9)
+    ax.set_xlim(-0.6, len(sections.BOUNDS) - 0.4)
     ax.set_ylim(0.0, top)
     ax.set_ylabel("local g-fairness L (nats)")
     ax.grid(True, axis="y", color="0.9", lw=0.6, zorder=0)
@@ -444,11 +414,11 @@ def _bound_lines(d: Report) -> list[tuple[str, float, dict[str, Any]]]:
     out: list[tuple[str, float, dict[str, Any]]] = []
     for key, what, ls in (("observed", "behind the filter", "-"), ("unfiltered", "without the filter", "--")):
         if key in d and not math.isnan(v := _num(d[key]["local"]["value"])):
-            label = f"observed L {what}: {nats(v if math.isfinite(v) else 'inf')}"
+            label = f"observed L {what}: {sections.nats(v if math.isfinite(v) else 'inf')}"
             out.append((label, v, {"color": "black", "ls": ls, "lw": 1.4}))
     t = (d.get("targets") or {}).get("local")
     if t is not None and not math.isnan(v := _num(t["target"])):
-        out.append((f"local target: {nats(t['target'])}", v, {"color": "tab:purple", "ls": ":", "lw": 2.0}))
+        out.append((f"local target: {sections.nats(t['target'])}", v, {"color": "tab:purple", "ls": ":", "lw": 2.0}))
     return out
 
 
@@ -518,7 +488,7 @@ def _groups_caption(d: Report) -> str:
     if len(d["contexts"]) > 1:
         text += ", pooled over the contexts (the cells' E[g | x, a] weighted by their records)"
     if d.get("confidence") is not None and len(d["contexts"]) == 1:
-        text += f", with its simultaneous {fmt(d['confidence'])} interval ({d['interval_method']})"
+        text += f", with its simultaneous {sections.fmt(d['confidence'])} interval ({d['interval_method']})"
     elif d.get("confidence") is not None:
         text += "; the intervals are per cell (the figure of E[g | x, a])"
     if n > GROUPS_DRAWN:
@@ -571,7 +541,7 @@ def _cells_caption(d: Report) -> str:
     """The caption of :func:`_cells_figure`: which intervals, what is left out."""
     text = "E[g | x, a] per context (rows) and group (colours)"
     if d.get("confidence") is not None:
-        text += f", with the simultaneous {fmt(d['confidence'])} intervals ({d['interval_method']})"
+        text += f", with the simultaneous {sections.fmt(d['confidence'])} intervals ({d['interval_method']})"
     text += "; cells without records are not drawn"
     if len(d["contexts"]) > CONTEXTS_DRAWN:
         text += f"; the first {CONTEXTS_DRAWN} of {len(d['contexts'])} contexts"

@@ -12,44 +12,8 @@ import re
 from collections.abc import Sequence
 
 from fairaudit.base.json_values import Report
+from fairaudit.reports.formats import sections
 from fairaudit.reports.formats.base import Format
-from fairaudit.reports.formats.sections import (
-    ASSUMPTION_HEAD,
-    BOUND_HEAD,
-    BY_CONTEXT_HEAD,
-    CONTEXTS_SHOWN,
-    GAP_HEAD,
-    GAP_NOTE,
-    OBSERVED_PARTS,
-    OUTCOME_HEAD,
-    PLAN_HEAD,
-    TARGET_HEAD,
-    assumption_rows,
-    audit_facts,
-    audit_notes,
-    bound_rows,
-    by_context_table,
-    calibration_sentences,
-    certificate_facts,
-    counts_sentence,
-    gap_rows,
-    impact_notes,
-    impact_tables,
-    impact_title,
-    metric_table,
-    nats,
-    observed_notes,
-    outcome_rows,
-    outcomes_more,
-    plan_head,
-    plan_rows,
-    published_notes,
-    published_tables,
-    record_rows,
-    records,
-    sentence,
-    target_rows,
-)
 from fairaudit.reports.formats.text import calibration_text, worst_case_text
 
 __all__ = ["MarkdownFormat", "code_block", "code_span", "escape"]
@@ -125,27 +89,27 @@ class MarkdownFormat(Format):
     def certificate(self, d: Report) -> str:
         """Privacy, utility, population, the bounds, what was observed, targets, calibration and assumptions."""
         lines = [f"# fairaudit certificate: {escape(d['title'] or d['spec'])}", ""]
-        lines += _facts(certificate_facts(d))
+        lines += _facts(sections.certificate_facts(d))
         lines += ["", "## Bounds on L for any decision model behind the filter", ""]
-        lines += _table(bound_rows(d), BOUND_HEAD)
+        lines += _table(sections.bound_rows(d), sections.BOUND_HEAD)
         lines += [
             "",
-            f"Best valid bound: **{nats(d['bounds']['best'])}** ({escape(d['bounds']['best_form'])}).",
+            f"Best valid bound: **{sections.nats(d['bounds']['best'])}** ({escape(d['bounds']['best_form'])}).",
         ]
-        for key, head in OBSERVED_PARTS:
+        for key, head in sections.OBSERVED_PARTS:
             if key in d:
                 lines += ["", f"## {head}", ""] + _observed(d[key], counts=key == "observed")
             elif key == "observed" and "observed_omitted" in d:
                 lines += ["", f"## {head}", "", f"Left out: {escape(d['observed_omitted'])}"]
         if "targets" in d:
             lines += ["", "## Targets", ""]
-            lines += _table(target_rows(d["targets"]), TARGET_HEAD)
+            lines += _table(sections.target_rows(d["targets"]), sections.TARGET_HEAD)
         if "calibration" in d:
             lines += ["", "## Calibration"]
-            for sentence in calibration_sentences(d["calibration"]):
+            for sentence in sections.calibration_sentences(d["calibration"]):
                 lines += ["", escape(sentence)]
         lines += ["", "## Assumptions", ""]
-        lines += _table(assumption_rows(d), ASSUMPTION_HEAD)
+        lines += _table(sections.assumption_rows(d), sections.ASSUMPTION_HEAD)
         lines += ["", f"**Certified: {'yes' if d['certified'] else 'no'}**", ""]
         return "\n".join(lines)
 
@@ -153,35 +117,41 @@ class MarkdownFormat(Format):
         """The audit's columns, records per group and per context, the population, the metrics and the notes."""
         if "published" in d:  # fairaudit audit --published: the checked table alone
             lines = ["# A published bias audit, checked", ""]
-            for title, head, rows in published_tables(d):
+            for title, head, rows in sections.published_tables(d):
                 lines += [f"## {escape(title)}", ""] + _table(rows, head) + [""]
-            return "\n".join(lines + [f"* {escape(n)}" for n in published_notes(d)] + [""])
+            return "\n".join(lines + [f"* {escape(n)}" for n in sections.published_notes(d)] + [""])
         lines = []
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after
-            lines += [f"# {escape(impact_title(d))}", ""]
-            for name, head, rows in impact_tables(d):
+            lines += [f"# {escape(sections.impact_title(d))}", ""]
+            for name, head, rows in sections.impact_tables(d):
                 lines += [f"## By {escape(name)}", ""] + _table(rows, head) + [""]
-            lines += [f"* {escape(n)}" for n in impact_notes(d)] + [""]
-        lines += [f"# fairaudit audit: {escape(records(d))}", ""]
-        lines += _facts(audit_facts(d), code=("utility",))
+            lines += [f"* {escape(n)}" for n in sections.impact_notes(d)] + [""]
+        lines += [f"# fairaudit audit: {escape(sections.records(d))}", ""]
+        lines += _facts(sections.audit_facts(d), code=("utility",))
         lines += ["", "## Records per group", ""]
-        lines += _table(record_rows(d["groups"]), ("group", "records"))
+        lines += _table(sections.record_rows(d["groups"]), ("group", "records"))
         if "outcome_values" in d:
             lines += ["", "## Records per outcome value", ""]
-            lines += _table(outcome_rows(d), OUTCOME_HEAD)
-            lines += ["", escape(outcomes_more(d) or "") + "."] if outcomes_more(d) else []
+            lines += _table(sections.outcome_rows(d), sections.OUTCOME_HEAD)
+            lines += ["", escape(sections.outcomes_more(d) or "") + "."] if sections.outcomes_more(d) else []
         if len(d["contexts"]) > 1:
             lines += ["", "## Records per context", ""]
-            shown = d["contexts"][:CONTEXTS_SHOWN]
-            lines += _table(record_rows(shown), ("context", "records"))
+            shown = d["contexts"][: sections.CONTEXTS_SHOWN]
+            lines += _table(sections.record_rows(shown), ("context", "records"))
             if len(d["contexts"]) > len(shown):
                 lines += ["", f"... and {len(d['contexts']) - len(shown)} more contexts (all in `--format json`)."]
         lines += ["", "## Metrics", ""] + _observed(d) + [""]
-        lines += [f"**Note**: {escape(n)}." for n in audit_notes(d)] + ([""] if audit_notes(d) else [])
+        lines += [f"**Note**: {escape(n)}." for n in sections.audit_notes(d)] + (
+            [""] if sections.audit_notes(d) else []
+        )
         if "by_context" in d:
-            lines += ["## L by context", ""] + _table(by_context_table(d), BY_CONTEXT_HEAD) + [""]
+            lines += ["## L by context", ""] + _table(sections.by_context_table(d), sections.BY_CONTEXT_HEAD) + [""]
         if "gaps_on_g" in d:
-            lines += ["## Gaps of g", ""] + _table(gap_rows(d), GAP_HEAD) + ["", escape(GAP_NOTE) + ".", ""]
+            lines += (
+                ["## Gaps of g", ""]
+                + _table(sections.gap_rows(d), sections.GAP_HEAD)
+                + ["", escape(sections.GAP_NOTE) + ".", ""]
+            )
         return "\n".join(lines)
 
     def calibration(self, d: Report) -> str:
@@ -194,9 +164,9 @@ class MarkdownFormat(Format):
 
     def plan(self, d: Report) -> str:
         """The question and the assumed model as sentences, then a table of the methods."""
-        head = plan_head(d)
+        head = sections.plan_head(d)
         lines = ["# fairaudit plan", "", escape(head[0]) + ".", "", escape(head[1]) + ".", ""]
-        lines += _table(plan_rows(d), PLAN_HEAD)
+        lines += _table(sections.plan_rows(d), sections.PLAN_HEAD)
         lines += [""] + [f"* {escape(p['method'])}: {escape(p['reason'])}" for p in d["plans"] if p["reason"]]
         return "\n".join(lines).rstrip("\n") + "\n"
 
@@ -218,12 +188,12 @@ def _observed(o: Report, counts: bool = False) -> list[str]:
 
     With ``counts``, the white-box certificate and evidence that the intervals give (:func:`counts_sentence`).
     """
-    head, rows = metric_table(o)
+    head, rows = sections.metric_table(o)
     lines = _table(rows, head)
-    found = counts_sentence(o) if counts else None
+    found = sections.counts_sentence(o) if counts else None
     if found is not None:
-        lines += ["", escape(sentence(found))]
-    notes, excluded, more = observed_notes(o)
+        lines += ["", escape(sections.sentence(found))]
+    notes, excluded, more = sections.observed_notes(o)
     if notes:
         lines += ["", "Notes on the intervals:", ""] + [f"* {escape(n)}" for n in notes]
     if excluded:

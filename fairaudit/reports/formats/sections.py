@@ -561,10 +561,8 @@ def audit_notes(d: Report) -> list[str]:
     """The audit's notes on small cells: the cell that drives L when it cannot support it, the cells left out."""
     from fairaudit.statistics.small_cells import small_cell_sentence
 
-    notes = []
     headline = headline_note(d)
-    if headline is not None:
-        notes.append(headline)
+    notes = [] if headline is None else [headline]
     if d.get("small_cell"):
         notes.append(small_cell_sentence(d["small_cell"]))
     if d.get("left_out"):

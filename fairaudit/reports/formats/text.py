@@ -5,38 +5,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from fairaudit.base.json_values import Report
+from fairaudit.reports.formats import sections
 from fairaudit.reports.formats.base import Format
-from fairaudit.reports.formats.sections import (
-    BY_CONTEXT_HEAD,
-    CONTEXTS_SHOWN,
-    GAP_NOTE,
-    PLAN_HEAD,
-    audit_notes,
-    bound_rows,
-    by_context_table,
-    calibration_sentences,
-    certificate_facts,
-    counts_sentence,
-    fmt,
-    gap_rows,
-    impact_notes,
-    impact_tables,
-    impact_title,
-    measure,
-    metric_rows,
-    nats,
-    observed_notes,
-    outcome_rows,
-    outcomes_more,
-    pair,
-    plan_head,
-    plan_rows,
-    population_line,
-    published_notes,
-    published_tables,
-    record_rows,
-    records,
-)
 
 __all__ = ["TextFormat", "calibration_text", "worst_case_text"]
 
@@ -48,11 +18,13 @@ class TextFormat(Format):
 
     def certificate(self, d: Report) -> str:
         """Privacy, utility, population, the bounds, what was observed, targets, calibration, assumptions."""
-        lines = [f"fairaudit certificate: {d['title'] or d['spec']}"] + [f"{k}: {v}" for k, v in certificate_facts(d)]
+        lines = [f"fairaudit certificate: {d['title'] or d['spec']}"] + [
+            f"{k}: {v}" for k, v in sections.certificate_facts(d)
+        ]
         lines += _bound_lines(d)
         if "observed" in d:
             lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
-            counts = counts_sentence(d["observed"])
+            counts = sections.counts_sentence(d["observed"])
             if counts is not None:
                 lines.append(f"  {counts}")
         elif "observed_omitted" in d:
@@ -62,10 +34,9 @@ class TextFormat(Format):
         if "targets" in d:
             lines += _target_lines(d["targets"])
         if "calibration" in d:
-            lines += calibration_sentences(d["calibration"], plain=True)
+            lines += sections.calibration_sentences(d["calibration"], plain=True)
         lines.append("assumptions:")
-        for a in d["assumptions"]:
-            lines.append(f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})")
+        lines += [f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})" for a in d["assumptions"]]
         lines.append(f"certified: {'yes' if d['certified'] else 'no'}")
         return "\n".join(lines) + "\n"
 
@@ -73,15 +44,15 @@ class TextFormat(Format):
         """Records per group (and context), the population, the intervals' level and the metrics."""
         if "published" in d:  # fairaudit audit --published: the checked table alone
             lines = []
-            for title, head, rows in published_tables(d):
+            for title, head, rows in sections.published_tables(d):
                 lines += [f"published {title}:", *_aligned([head, *rows]), ""]
-            return "\n".join(lines + published_notes(d)) + "\n"
+            return "\n".join(lines + sections.published_notes(d)) + "\n"
         ctx = ", ".join(d["context_columns"]) or "none"
         lines = []
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after
-            lines += [impact_title(d), *_impact_lines(d)[1:], ""]
+            lines += [sections.impact_title(d), *_impact_lines(d)[1:], ""]
         lines += [
-            f"fairaudit audit: {records(d)}; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
+            f"fairaudit audit: {sections.records(d)}; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
             f"context {ctx}",
             f"utility: {d['utility']['name']}",
         ]
@@ -89,23 +60,23 @@ class TextFormat(Format):
         def listed(what: str, items: list[str], more: bool = False) -> str:
             return f"records per {what}: " + ", ".join(items) + (" ..." if more else "")
 
-        lines.append(listed("group", [f"{label} {n}" for label, n in record_rows(d["groups"])]))
+        lines.append(listed("group", [f"{label} {n}" for label, n in sections.record_rows(d["groups"])]))
         if "outcome_values" in d:
-            values = [f"{u} {n} (g {g})" for u, n, g in outcome_rows(d)]
-            lines.append(listed("outcome value", values, outcomes_more(d) is not None))
+            values = [f"{u} {n} (g {g})" for u, n, g in sections.outcome_rows(d)]
+            lines.append(listed("outcome value", values, sections.outcomes_more(d) is not None))
         if len(d["contexts"]) > 1:
-            shown = [f"{label} {n}" for label, n in record_rows(d["contexts"][:CONTEXTS_SHOWN])]
-            lines.append(listed("context", shown, len(d["contexts"]) > CONTEXTS_SHOWN))
-        lines.append(population_line(d))
+            shown = [f"{label} {n}" for label, n in sections.record_rows(d["contexts"][: sections.CONTEXTS_SHOWN])]
+            lines.append(listed("context", shown, len(d["contexts"]) > sections.CONTEXTS_SHOWN))
+        lines.append(sections.population_line(d))
         if d["confidence"] is not None:
-            lines.append(f"intervals: simultaneous {fmt(d['confidence'])} ({d['interval_method']})")
+            lines.append(f"intervals: simultaneous {sections.fmt(d['confidence'])} ({d['interval_method']})")
         lines += _observed_lines(d, "metrics:")
-        lines += [f"note: {n}" for n in audit_notes(d)]
+        lines += [f"note: {n}" for n in sections.audit_notes(d)]
         if "by_context" in d:
-            lines += ["L by context:", *_aligned([BY_CONTEXT_HEAD, *by_context_table(d)])]
+            lines += ["L by context:", *_aligned([sections.BY_CONTEXT_HEAD, *sections.by_context_table(d)])]
         if "gaps_on_g" in d:
-            lines += [f"  {name:<28} {value:<18} ({where})" for name, value, where in gap_rows(d)]
-            lines.append(f"  {GAP_NOTE}")
+            lines += [f"  {name:<28} {value:<18} ({where})" for name, value, where in sections.gap_rows(d)]
+            lines.append(f"  {sections.GAP_NOTE}")
         return "\n".join(lines) + "\n"
 
     def calibration(self, d: Report) -> str:
@@ -118,29 +89,31 @@ class TextFormat(Format):
 
     def plan(self, d: Report) -> str:
         """The question, the assumed model and an aligned table of the methods."""
-        lines = plan_head(d)
-        lines += _aligned([PLAN_HEAD, *plan_rows(d)])
+        lines = sections.plan_head(d)
+        lines += _aligned([sections.PLAN_HEAD, *sections.plan_rows(d)])
         lines += [f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
         return "\n".join(lines) + "\n"
 
 
 def worst_case_text(d: Report) -> str:
     """The ``worst-case`` report as text (the Markdown and HTML formats quote it)."""
-    tau = "" if d["tau"] is None else f", E[g | x, a] >= tau = {fmt(d['tau'])}"
+    tau = "" if d["tau"] is None else f", E[g | x, a] >= tau = {sections.fmt(d['tau'])}"
     lines = [
         f"fairaudit worst case: {d['title'] or d['spec']}",
         f"law: {d['law']}; sensitive {d['sensitive']}, context {d['context']}",
-        f"utilities: every g({d['decision']}) in [{fmt(d['lower'])}, {fmt(d['gamma'])}]{tau}",
+        f"utilities: every g({d['decision']}) in [{sections.fmt(d['lower'])}, {sections.fmt(d['gamma'])}]{tau}",
     ]
     for key, name in (("local", "L"), ("global", "L-bar")):
         w = d[key]
         lines.append(f"worst utility for {name}: {_utility_line(d, w['utility'])}")
         lines.append(
-            f"  {name} = {nats(w['value'])}, ratio {fmt(w['ratio'])}{pair(w)}; method {w['method']}"
-            + (f" ({w['reason']})" if w.get("reason") else "")
+            f"  {name} = {sections.nats(w['value'])}, ratio {sections.fmt(w['ratio'])}{sections.pair(w)}; "
+            f"method {w['method']}" + (f" ({w['reason']})" if w.get("reason") else "")
         )
     u = d["spec_utility"]
-    lines.append(f"the spec's utility {u['name']}: L = {nats(u['local'])}, L-bar = {nats(u['global'])}")
+    lines.append(
+        f"the spec's utility {u['name']}: L = {sections.nats(u['local'])}, L-bar = {sections.nats(u['global'])}"
+    )
     lines += [f"excluded: {e}" for e in d["excluded"]]
     return "\n".join(lines) + "\n"
 
@@ -164,7 +137,7 @@ def _utility_line(d: Report, values: list[float] | None) -> str:
     parts = []
     for x in sorted(by_value, reverse=True):
         names = by_value[x]
-        parts.append(f"{fmt(x)} on {', '.join(names[:20])}{', ...' if len(names) > 20 else ''}")
+        parts.append(f"{sections.fmt(x)} on {', '.join(names[:20])}{', ...' if len(names) > 20 else ''}")
     return "g = " + "; ".join(parts)
 
 
@@ -172,21 +145,27 @@ def calibration_text(d: Report) -> str:
     """The ``calibrate`` report as text (the Markdown format quotes it in a code block)."""
     up = _unparsed_line(d)
     ratio = d.get("target_impact_ratio")
-    goal = f"{measure(d)} <= {nats(d['target'])}"
+    goal = f"{sections.measure(d)} <= {sections.nats(d['target'])}"
     if ratio is not None:  # the target given as an impact ratio r: L <= -ln r
-        goal += f" (every impact ratio >= {fmt(ratio)}: {measure(d)} is -ln of the worst impact ratio)"
+        goal += (
+            f" (every impact ratio >= {sections.fmt(ratio)}: {sections.measure(d)} is -ln of the worst impact ratio)"
+        )
     if not d["feasible"]:
-        low = f"the model's {measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
+        low = (
+            f"the model's {sections.measure(d)} at epsilon = 0"
+            if d["method"] == "white_box"
+            else "smallest certified bound"
+        )
         return (
             f"no epsilon of {d['family']} meets {goal}\n"
-            f"method: {d['method']}; {low}: {nats(d['bound'])}\n{up}"
+            f"method: {d['method']}; {low}: {sections.nats(d['bound'])}\n{up}"
             f"reason: {d['reason']}\n"
         )
-    there = f"the model's {measure(d)} there" if d["method"] == "white_box" else "certified bound there"
+    there = f"the model's {sections.measure(d)} there" if d["method"] == "white_box" else "certified bound there"
     return (
-        f"largest epsilon of {d['family']} meeting {goal}: {nats(d['epsilon'])}\n"
-        f"keep probability (the price): {fmt(d['keep_probability'])}\n"
-        f"method: {d['method']}; {there}: {nats(d['bound'])}\n{up}"
+        f"largest epsilon of {d['family']} meeting {goal}: {sections.nats(d['epsilon'])}\n"
+        f"keep probability (the price): {sections.fmt(d['keep_probability'])}\n"
+        f"method: {d['method']}; {there}: {sections.nats(d['bound'])}\n{up}"
         f"reason: {d['reason']}\n"
     )
 
@@ -198,29 +177,29 @@ def _unparsed_line(d: Report) -> str:
         return ""
     lo, hi = u["range"]
     return (
-        f"unparsed decision {u['decision']!s}: calibrated on the upper end of {measure(d)} over every utility of it "
-        f"in [{fmt(lo)}, {fmt(hi)}], chosen per cell of the model, not on its stated utility\n"
+        f"unparsed decision {u['decision']!s}: calibrated on the upper end of {sections.measure(d)} over every "
+        f"utility of it in [{sections.fmt(lo)}, {sections.fmt(hi)}], chosen per cell of the model, not on its stated "
+        "utility\n"
     )
 
 
 def _bound_lines(d: Report) -> list[str]:
     """The bounds on L for any model behind the filter, each with its details, then the best valid one."""
-    lines = ["bounds on L for any decision model behind the filter:"]
-    for name, value, detail in bound_rows(d):
-        lines.append(f"  {name:<30} {value}{' ' + detail if detail else ''}")
-    lines.append(f"  best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
-    return lines
+    return [
+        "bounds on L for any decision model behind the filter:",
+        *(f"  {name:<30} {value}{' ' + detail if detail else ''}" for name, value, detail in sections.bound_rows(d)),
+        f"  best valid bound: {sections.nats(d['bounds']['best'])} ({d['bounds']['best_form']})",
+    ]
 
 
 def _observed_lines(o: Report, head: str) -> list[str]:
     """The observed metrics under ``head``: value, where it is attained and its interval; notes; exclusions."""
-    lines = [head]
-    for name, value, detail, at, iv in metric_rows(o):
-        lines.append(
-            f"  {name:<28} {value:<18}{' ' + detail if detail else ''}{f' ({at})' if at else ''}"
-            f"{f'  interval {iv}' if iv else ''}"
-        )
-    notes, excluded, more = observed_notes(o)
+    lines = [head] + [
+        f"  {name:<28} {value:<18}{' ' + detail if detail else ''}{f' ({at})' if at else ''}"
+        f"{f'  interval {iv}' if iv else ''}"
+        for name, value, detail, at, iv in sections.metric_rows(o)
+    ]
+    notes, excluded, more = sections.observed_notes(o)
     lines += [f"  intervals: {n}" for n in notes] + [f"  excluded: {e}" for e in excluded]
     return lines + ([f"  ... and {more} more exclusions"] if more else [])
 
@@ -229,10 +208,10 @@ def _target_lines(targets: Report) -> list[str]:
     """One line per target: met or not, the bound and the observed value."""
     lines = []
     for k, t in targets.items():
-        obs = f"; observed {nats(t['observed'])}" if t["observed"] is not None else ""
+        obs = f"; observed {sections.nats(t['observed'])}" if t["observed"] is not None else ""
         lines.append(
-            f"target {k}: {nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
-            f"(bound {nats(t['bound'])}{obs}; {t['reason']})"
+            f"target {k}: {sections.nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
+            f"(bound {sections.nats(t['bound'])}{obs}; {t['reason']})"
         )
     return lines
 
@@ -240,9 +219,9 @@ def _target_lines(targets: Report) -> list[str]:
 def _impact_lines(d: Report) -> list[str]:
     """The impact-ratio tables, aligned, one per category type, and their notes."""
     lines = []
-    for name, head, rows in impact_tables(d):
+    for name, head, rows in sections.impact_tables(d):
         lines += ["", f"impact ratios by {name}:", *_aligned([head, *rows])]
-    return lines + [""] + impact_notes(d)
+    return lines + [""] + sections.impact_notes(d)
 
 
 def _aligned(table: Sequence[Sequence[str]]) -> list[str]:

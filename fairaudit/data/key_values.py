@@ -41,15 +41,12 @@ import re
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from numbers import Number
-from typing import TYPE_CHECKING, Any, TypeAlias
+from typing import Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.errors import InputError, echo
-
-if TYPE_CHECKING:
-    pass
 
 __all__ = ["CONTROL", "ROWS_SHOWN", "Locate", "check_key_values", "control_name", "records_locate"]
 

@@ -466,9 +466,7 @@ def _kish_scales(table: CountTable) -> dict[str, FloatArray]:
 
 
 def _identity(mech: Mechanism | None, labels: tuple) -> bool:
-    if mech is None:
-        return True
-    return tuple(mech.inputs) == tuple(labels) and mech.is_identity
+    return mech is None or (tuple(mech.inputs) == tuple(labels) and mech.is_identity)
 
 
 def _audited_law(

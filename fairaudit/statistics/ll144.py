@@ -526,12 +526,13 @@ def impact_ratios(
     effective = table.effective_counts(pooled=True)
     types = category_types(table)
     total = float(pooled.sum())
-    shares, selected, trials, positives = [], [], [], []
-    for _, _, members in types:
-        shares.append(np.array([pooled[m].sum() for m in members]))
-        selected.append(np.array([(pooled[m] @ g.values).sum() for m in members]))
-        trials.append(np.array([effective[m].sum() for m in members]))
-        positives.append(np.array([(effective[m] @ g.values).sum() for m in members]))
+
+    def by_category(values: np.ndarray) -> list[FloatArray]:
+        """Per category type, each category's total of ``values`` (per group, or per group and decision)."""
+        return [np.array([values[m].sum() for m in members]) for _, _, members in types]
+
+    shares, selected = by_category(pooled), by_category(pooled @ g.values)
+    trials, positives = by_category(effective), by_category(effective @ g.values)
     included = [n >= SMALL_SHARE * total for n in shares]
     whole = table.whole
     test = rule.test if whole else "z"

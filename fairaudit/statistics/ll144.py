@@ -409,7 +409,7 @@ class ImpactRatios:
         )
 
         def floats(values: list[float | None]) -> pd.Series:
-            return pd.Series([math.nan if v is None else v for v in values], dtype="float64")
+            return pd.Series(values, dtype="float64")  # (None: NaN)
 
         def ends(pairs: list[tuple[float, float] | None], i: int) -> pd.Series:
             return floats([None if p is None else p[i] for p in pairs])
@@ -612,8 +612,7 @@ def round_half_up(value: float, digits: int, how: str = "half up") -> float:
     modes = {"half up": ROUND_HALF_UP, "down": ROUND_FLOOR, "up": ROUND_CEILING}
     if how not in modes:
         raise InputError("how", "must be 'half up', 'down' or 'up'", how)
-    mode = modes[how]
-    return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=mode))
+    return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=modes[how]))
 
 
 def _type_rows(

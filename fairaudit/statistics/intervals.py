@@ -325,8 +325,7 @@ def _check(table: object, utility: object, intervals: object) -> IntervalOptions
         raise InputError("table", "must be a CountTable (fairaudit.count_records or count_table)", type(table).__name__)
     if not isinstance(utility, Utility):
         raise InputError("utility", "must be a Utility", type(utility).__name__)
-    given = interval_options(intervals)
-    options = IntervalOptions() if given is None else given
+    options = interval_options(intervals) or IntervalOptions()
     counts = np.asarray(table.counts, dtype=float)
     if table.squares is None and np.any(counts != np.round(counts)):
         bad = counts[counts != np.round(counts)].flat[0]

@@ -244,18 +244,17 @@ def check_published(table: pd.DataFrame, columns: dict[str, str] | None = None) 
     """
     found = _columns(table, columns or {})
     rows = [_read(table, found, i) for i in range(len(table))]
-    out: list[PublishedRow | None] = [None] * len(rows)
+    out: dict[int, PublishedRow] = {}
     comparators: dict[tuple[str | None, str], str] = {}
     groups: dict[tuple, list[int]] = {}
     for i, r in enumerate(rows):
         groups.setdefault((r["audit"], r["rate_kind"], r["type"]), []).append(i)
     for (audit, kind, type_), members in groups.items():
         checked, comparator = _check_type([rows[i] for i in members])
-        for i, row in zip(members, checked, strict=True):
-            out[i] = row
+        out.update(zip(members, checked, strict=True))
         if comparator is not None:
             comparators[(" / ".join(v for v in (audit, kind) if v) or None, type_)] = comparator
-    return PublishedAudit(tuple(_verdicts([r for r in out if r is not None])), found, comparators)
+    return PublishedAudit(tuple(_verdicts([out[i] for i in range(len(rows))])), found, comparators)
 
 
 def _columns(table: pd.DataFrame, given: dict[str, str]) -> dict[str, str]:

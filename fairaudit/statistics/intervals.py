@@ -81,7 +81,7 @@ from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.observed import observe
 from fairaudit.statistics.bayes import band_sets
-from fairaudit.statistics.confidence_sets import SetMaker, binomial_sets, sum_last
+from fairaudit.statistics.confidence_sets import binomial_sets, sum_last
 from fairaudit.statistics.projection import MetricEnds, Projection, ProjectionOptions, project_sets
 
 __all__ = [
@@ -419,7 +419,6 @@ def fairness_intervals(
     """
     options = _check(table, utility, intervals)
     method, concentration, draws, seed = options.method, options.concentration, options.draws, options.seed
-    alpha = 1.0 - options.confidence
     counts = np.asarray(table.counts, dtype=float)
     g = np.asarray(utility.table(table.contexts, table.groups, table.decisions), dtype=float)
     indicator = bool(np.all((g == 0.0) | (g == 1.0)))
@@ -436,15 +435,14 @@ def fairness_intervals(
     bayes: dict[str, Any] = (
         {"concentration": float(concentration), "draws": int(draws), "seed": int(seed)} if method == "bayes" else {}
     )
-    sets: SetMaker = band_sets(concentration, int(draws), int(seed)) if bayes else binomial_sets
     projection = ProjectionOptions(
         method=method,
-        alpha=alpha,
+        alpha=1.0 - options.confidence,
         context_keep=(np.ones(len(law.contexts), bool) if law.population is None else law.population.p_context > 0),
         population=law.population,
         sensitive_mechanism=law.sensitive_mechanism,
         context_mechanism=law.context_mechanism,
-        sets=sets,
+        sets=band_sets(concentration, int(draws), int(seed)) if bayes else binomial_sets,
         **_kish_scales(table),
     )
     made = _assemble(project_sets(counts, g, projection), projection, law, estimate)

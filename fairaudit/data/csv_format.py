@@ -122,10 +122,9 @@ class CsvFormat:
     skip_initial_space: bool = False
 
     def __post_init__(self) -> None:
-        if not isinstance(self.header, bool):
-            raise InputError("header", "must be true or false", self.header)
-        if not isinstance(self.skip_initial_space, bool):
-            raise InputError("skip_initial_space", "must be true or false", self.skip_initial_space)
+        for flag in ("header", "skip_initial_space"):
+            if not isinstance(getattr(self, flag), bool):
+                raise InputError(flag, "must be true or false", getattr(self, flag))
         if self.names is not None:
             object.__setattr__(self, "names", distinct_names(self.names, "names"))
         elif not self.header:

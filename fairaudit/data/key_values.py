@@ -41,15 +41,12 @@ import re
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from numbers import Number
-from typing import TYPE_CHECKING, Any, TypeAlias
+from typing import Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.errors import InputError, echo
-
-if TYPE_CHECKING:
-    pass
 
 __all__ = ["CONTROL", "ROWS_SHOWN", "Locate", "check_key_values", "control_name", "records_locate"]
 
@@ -300,14 +297,11 @@ def _check_spellings(name: str, found: _Distinct, n: npt.NDArray[Any] | None, lo
         return
     values = uniques[number]
     meaning = [_meaning(v) for v in values]
-    first: dict[object, int] = {}
-    for i, m in enumerate(meaning):
-        j = first.setdefault(m, i)
-        if j != i:
-            same = sorted({str(values[j]), *(str(v) for v, m2 in zip(values, meaning) if m2 == m)})
-            break
-    else:
+    first: dict[object, int] = {}  # the first value of each meaning; the first meaning met again is refused
+    repeated = next((m for i, m in enumerate(meaning) if first.setdefault(m, i) != i), None)
+    if repeated is None:
         return
+    same = sorted({str(v) for v, m in zip(values, meaning) if m == repeated})
     bad = np.isin(np.asarray([str(v) for v in uniques], dtype=object), same) & number
     mask = bad[codes] & (codes >= 0)
     hits = locate(name, mask)

@@ -124,13 +124,10 @@ def count_spark(
     keys = [f"c{names.index(col)}" for col in used]
     renamed = frame.toDF(*(f"c{i}" for i in range(len(names))))
     agg = renamed.groupBy(*keys).count().toPandas()
-    count = "count"
-    while count in used:
-        count = "_" + count
-    agg.columns = pd.Index(used + [count])
+    n = agg.pop("count").to_numpy(dtype=np.int64)  # (the keys are c0, c1, ...: no clash with Spark's "count")
+    agg.columns = pd.Index(used)
     values = {c: agg[c].reset_index(drop=True) for c in used}
     missing = {c: values[c].isna().to_numpy() for c in used}
-    n = agg[count].to_numpy(dtype=np.int64)
     locate = _spark_locate(renamed, names, agg)
     return tally(values, missing, sensitive, outcome, context, dropna, n=n, locate=locate, mixed_outcome=mixed_outcome)
 

@@ -81,7 +81,7 @@ from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.observed import observe
 from fairaudit.statistics.bayes import band_sets
-from fairaudit.statistics.confidence_sets import SetMaker, binomial_sets, sum_last
+from fairaudit.statistics.confidence_sets import binomial_sets, sum_last
 from fairaudit.statistics.projection import MetricEnds, Projection, ProjectionOptions, project_sets
 
 __all__ = [
@@ -325,8 +325,7 @@ def _check(table: object, utility: object, intervals: object) -> IntervalOptions
         raise InputError("table", "must be a CountTable (fairaudit.count_records or count_table)", type(table).__name__)
     if not isinstance(utility, Utility):
         raise InputError("utility", "must be a Utility", type(utility).__name__)
-    given = interval_options(intervals)
-    options = IntervalOptions() if given is None else given
+    options = interval_options(intervals) or IntervalOptions()
     counts = np.asarray(table.counts, dtype=float)
     if table.squares is None and np.any(counts != np.round(counts)):
         bad = counts[counts != np.round(counts)].flat[0]
@@ -420,7 +419,6 @@ def fairness_intervals(
     """
     options = _check(table, utility, intervals)
     method, concentration, draws, seed = options.method, options.concentration, options.draws, options.seed
-    alpha = 1.0 - options.confidence
     counts = np.asarray(table.counts, dtype=float)
     g = np.asarray(utility.table(table.contexts, table.groups, table.decisions), dtype=float)
     indicator = bool(np.all((g == 0.0) | (g == 1.0)))
@@ -437,15 +435,14 @@ def fairness_intervals(
     bayes: dict[str, Any] = (
         {"concentration": float(concentration), "draws": int(draws), "seed": int(seed)} if method == "bayes" else {}
     )
-    sets: SetMaker = band_sets(concentration, int(draws), int(seed)) if bayes else binomial_sets
     projection = ProjectionOptions(
         method=method,
-        alpha=alpha,
+        alpha=1.0 - options.confidence,
         context_keep=(np.ones(len(law.contexts), bool) if law.population is None else law.population.p_context > 0),
         population=law.population,
         sensitive_mechanism=law.sensitive_mechanism,
         context_mechanism=law.context_mechanism,
-        sets=sets,
+        sets=band_sets(concentration, int(draws), int(seed)) if bayes else binomial_sets,
         **_kish_scales(table),
     )
     made = _assemble(project_sets(counts, g, projection), projection, law, estimate)
@@ -466,9 +463,7 @@ def _kish_scales(table: CountTable) -> dict[str, FloatArray]:
 
 
 def _identity(mech: Mechanism | None, labels: tuple) -> bool:
-    if mech is None:
-        return True
-    return tuple(mech.inputs) == tuple(labels) and mech.is_identity
+    return mech is None or (tuple(mech.inputs) == tuple(labels) and mech.is_identity)
 
 
 def _audited_law(

@@ -409,7 +409,7 @@ class ImpactRatios:
         )
 
         def floats(values: list[float | None]) -> pd.Series:
-            return pd.Series([math.nan if v is None else v for v in values], dtype="float64")
+            return pd.Series(values, dtype="float64")  # (None: NaN)
 
         def ends(pairs: list[tuple[float, float] | None], i: int) -> pd.Series:
             return floats([None if p is None else p[i] for p in pairs])
@@ -526,12 +526,13 @@ def impact_ratios(
     effective = table.effective_counts(pooled=True)
     types = category_types(table)
     total = float(pooled.sum())
-    shares, selected, trials, positives = [], [], [], []
-    for _, _, members in types:
-        shares.append(np.array([pooled[m].sum() for m in members]))
-        selected.append(np.array([(pooled[m] @ g.values).sum() for m in members]))
-        trials.append(np.array([effective[m].sum() for m in members]))
-        positives.append(np.array([(effective[m] @ g.values).sum() for m in members]))
+
+    def by_category(values: np.ndarray) -> list[FloatArray]:
+        """Per category type, each category's total of ``values`` (per group, or per group and decision)."""
+        return [np.array([values[m].sum() for m in members]) for _, _, members in types]
+
+    shares, selected = by_category(pooled), by_category(pooled @ g.values)
+    trials, positives = by_category(effective), by_category(effective @ g.values)
     included = [n >= SMALL_SHARE * total for n in shares]
     whole = table.whole
     test = rule.test if whole else "z"
@@ -611,8 +612,7 @@ def round_half_up(value: float, digits: int, how: str = "half up") -> float:
     modes = {"half up": ROUND_HALF_UP, "down": ROUND_FLOOR, "up": ROUND_CEILING}
     if how not in modes:
         raise InputError("how", "must be 'half up', 'down' or 'up'", how)
-    mode = modes[how]
-    return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=mode))
+    return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=modes[how]))
 
 
 def _type_rows(

@@ -196,11 +196,10 @@ def aclu_bounds(
     ([0.8, 0.64], [1.2, 1.04])
     """
     total = math.fsum(applicants)
-    lower, upper = [], []
-    for n, s in zip(applicants, selected, strict=True):
-        m = unknown_applicants * n / total if proportional else unknown_applicants
-        lower.append(s / (n + m) / comparator_rate)
-        upper.append((s + m) / (n + m) / comparator_rate)
+    added = [unknown_applicants * n / total if proportional else unknown_applicants for n in applicants]
+    counts = list(zip(applicants, selected, added, strict=True))
+    lower = [s / (n + m) / comparator_rate for n, s, m in counts]
+    upper = [(s + m) / (n + m) / comparator_rate for n, s, m in counts]
     return lower, upper
 
 

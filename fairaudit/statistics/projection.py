@@ -274,8 +274,7 @@ def _pooled_groups(b: _Boxes, cats: _Categories) -> _GroupBoxes:
 
 def _population_groups(b: _Boxes, population: Population) -> _GroupBoxes:
     """Group bounds as the population's mixtures E[g | a] = Σ_x P(x | a) E[g | x, a] of the cell bounds."""
-    w = population.context_given_group()  # (X, A)
-    w = np.where(np.isnan(w), 0.0, w)
+    w = np.nan_to_num(population.context_given_group(), nan=0.0)  # (X, A); a group with P(a) = 0 weighs nothing
     absent = population.p_group <= 0
     lower, upper = (w * b.e_lower).sum(0), (w * b.e_upper).sum(0)
     gev_lo, gev_hi = np.einsum("xa,sxa->sa", w, b.event_lower), np.einsum("xa,sxa->sa", w, b.event_upper)
@@ -294,8 +293,7 @@ def _mixed_ends(
     mix = np.einsum("xy,ab->xayb", m_x.matrix, m_a.matrix)
     n_contexts, n_groups = mix.shape[0], mix.shape[1]
     Wl = mix.reshape(n_contexts, n_groups, X * A)
-    w = population.context_given_group()
-    w = np.where(np.isnan(w), 0.0, w)
+    w = np.nan_to_num(population.context_given_group(), nan=0.0)
     Wg = np.einsum("xa,xayb->ayb", w, mix).reshape(n_groups, X * A)
     flat_lo, flat_hi = b.e_lower.reshape(-1), b.e_upper.reshape(-1)
     Wsel = Wl[keys]

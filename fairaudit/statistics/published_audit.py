@@ -22,13 +22,15 @@ decimals they print).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
+from fairaudit.statistics.ll144 import THRESHOLD, VERDICTS
 from fairaudit.statistics.missing_demographics import aclu_bounds, missing_data_bounds
+from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -61,6 +63,9 @@ UNKNOWN = ("missing/unknown", "unknown", "missing")
 """Category labels (any case) of the applicants of unknown category."""
 
 SMALL_SHARE = Fraction(2, 100)
+
+FIGURES = ("applicants", "selected", "rate", "impact_ratio")
+"""The roles read as printed figures (:func:`printed`); the others are labels."""
 
 
 @dataclass(frozen=True)
@@ -239,18 +244,17 @@ def check_published(table: pd.DataFrame, columns: dict[str, str] | None = None) 
     """
     found = _columns(table, columns or {})
     rows = [_read(table, found, i) for i in range(len(table))]
-    out: list[PublishedRow | None] = [None] * len(rows)
+    out: dict[int, PublishedRow] = {}
     comparators: dict[tuple[str | None, str], str] = {}
     groups: dict[tuple, list[int]] = {}
     for i, r in enumerate(rows):
         groups.setdefault((r["audit"], r["rate_kind"], r["type"]), []).append(i)
     for (audit, kind, type_), members in groups.items():
         checked, comparator = _check_type([rows[i] for i in members])
-        for i, row in zip(members, checked, strict=True):
-            out[i] = row
+        out.update(zip(members, checked, strict=True))
         if comparator is not None:
             comparators[(" / ".join(v for v in (audit, kind) if v) or None, type_)] = comparator
-    return PublishedAudit(tuple(_verdicts([r for r in out if r is not None])), found, comparators)
+    return PublishedAudit(tuple(_verdicts([out[i] for i in range(len(rows))])), found, comparators)
 
 
 def _columns(table: pd.DataFrame, given: dict[str, str]) -> dict[str, str]:
@@ -300,8 +304,7 @@ def _read(table: pd.DataFrame, found: dict[str, str], i: int) -> dict[str, Any]:
         "type": text("type") or "",
         "category": category,
         "unknown": any(p.lower() in UNKNOWN for p in parts),
-        **{role: printed(row[found[role]]) if role in found else None for role in ("applicants", "selected")},
-        **{role: printed(row[found[role]]) if role in found else None for role in ("rate", "impact_ratio")},
+        **{role: printed(row[found[role]]) if role in found else None for role in FIGURES},
     }
 
 
@@ -324,7 +327,7 @@ def _check_type(group: list[dict[str, Any]]) -> tuple[list[PublishedRow], str | 
         if r["impact_ratio"] is not None and not r["unknown"]:
             if r["impact_ratio"].value > 1:
                 findings.append(f"above 1: printed {_text(r['impact_ratio'])}")
-            elif not _ratio_holds(r, included, exact):
+            elif not _ratio_holds(r, included):
                 want = "the counts" if r["selected"] is not None else "the printed rates"
                 findings.append(f"ratio: printed {_text(r['impact_ratio'])}, from {want} {float(ratio or 0):.4g}")
         share = None if r["applicants"] is None or not total else r["applicants"].value / total
@@ -348,7 +351,7 @@ def _exact_rate(r: dict[str, Any]) -> Fraction | None:
     return None if r["rate"] is None else r["rate"].value
 
 
-def _ratio_holds(r: dict[str, Any], included: list[dict[str, Any]], exact: dict[int, Fraction | None]) -> bool:
+def _ratio_holds(r: dict[str, Any], included: list[dict[str, Any]]) -> bool:
     """Whether the printed ratio is the rate over the highest included rate: exactly from counts; over the box of
     the printed rates' rounding where a rate comes from print (``proofs/impact_ratio.md`` §1's range)."""
 
@@ -405,13 +408,7 @@ def _missing(group: list[dict[str, Any]], known: list[dict[str, Any]]) -> dict[i
     # theirs: the flagged comparator's printed rate, else max(result) with the unknown row in
     printed_rates = [r["rate"].value for r in group if r["rate"] is not None]
     flagged = [r["rate"].value for r in group if r["comparator"] and r["rate"] is not None]
-    top = (
-        flagged[0]
-        if flagged
-        else max(printed_rates)
-        if printed_rates
-        else max((v for v in map(_exact_rate, group) if v is not None), default=None)
-    )
+    top = max(flagged[:1] or printed_rates or [v for v in map(_exact_rate, group) if v is not None], default=None)
     if top:
         n = [float(r["applicants"].value) for r in counted]
         s = [float(r["selected"].value) for r in counted]
@@ -442,11 +439,6 @@ def _text(p: Printed) -> str:
 def _verdicts(rows: list[PublishedRow]) -> list[PublishedRow]:
     """Each row with whole counts and a printed ratio, tested against its type's highest recomputed rate (Fisher,
     Holm over each audit's tests) and its recomputed ratio read against four-fifths."""
-    from dataclasses import replace
-
-    from fairaudit.statistics.ll144 import THRESHOLD, VERDICTS
-    from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test
-
     counts = {
         i: (r.selected, r.applicants)
         for i, r in enumerate(rows)

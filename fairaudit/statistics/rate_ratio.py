@@ -237,9 +237,7 @@ def adjusted(p_values: npt.ArrayLike, adjustment: str = "holm") -> FloatArray:
         return np.minimum(p * m, 1.0)
     order = np.argsort(p, kind="stable")
     stepped = np.minimum(np.maximum.accumulate(p[order] * (m - np.arange(m))), 1.0)
-    out = np.empty_like(p)
-    out[order] = stepped
-    return out
+    return stepped[np.argsort(order)]  # (back in the order given)
 
 
 def ratio_range(lower: npt.ArrayLike, upper: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:

@@ -280,7 +280,7 @@ class Audit:
         out.update(self.observed.to_dict(iv))
         for cell in self.left_out:  # the law has no records there because they were left out: say so
             empty = f"cell (context {format_label(cell.context)!r}, group {format_label(cell.group)!r}): no records"
-            said = f"{empty[: -len('no records')]}{cell.n:g} records, fewer than min_count {self.min_count}: left out"
+            said = f"{cell}, fewer than min_count {self.min_count}: left out"  # (LeftOut reads "cell (...): N records")
             out["excluded"] = [said if e == empty else e for e in out["excluded"]]
         return out
 

@@ -546,11 +546,11 @@ def _search(
     seen: dict[int, tuple[float, float]] = {}  # n -> (power, median upper end)
 
     def evaluate(n: int) -> tuple[float, float]:
-        if n not in seen and exact:
+        if n in seen:
+            return seen[n]
+        if exact:
             seen[n] = _order_power(n, inputs, rates)
-            if progress is not None:
-                progress(n, seen[n][0])
-        if n not in seen:
+        else:
             rng = np.random.default_rng(seed)
             D, shape = inputs["datasets"], (inputs["contexts"], inputs["groups"])
             parts = []
@@ -560,8 +560,8 @@ def _search(
                     bar.update(len(parts[-1]))
             up = np.concatenate(parts)
             seen[n] = (float(np.mean(up <= target)), float(np.median(up)))
-            if progress is not None:
-                progress(n, seen[n][0])
+        if progress is not None:
+            progress(n, seen[n][0])
         return seen[n]
 
     lo, hi = 0, 1

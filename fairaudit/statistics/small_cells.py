@@ -84,8 +84,8 @@ def by_context_rows(local: Fairness, table: CountTable, json: bool = False) -> l
     for i, x in enumerate(table.contexts):
         row = e[i]
         known = ~np.isnan(row)
-        hi = int(np.nanargmax(row)) if known.sum() >= 2 else None  # (a pair needs two groups with records)
-        lo = int(np.nanargmin(row)) if known.sum() >= 2 else None
+        pair = known.sum() >= 2  # (a pair needs two groups with records)
+        hi, lo = (int(np.nanargmax(row)), int(np.nanargmin(row))) if pair else (None, None)
         value = float(per[i])
         rows.append(
             {

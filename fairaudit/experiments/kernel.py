@@ -230,16 +230,9 @@ def _served(route: Route, out: Path, log: Callable[[str], None] | None) -> Itera
     folder = model_files.prepare(name, log=log)
     if log:
         log(f"serving {name} on 127.0.0.1 (output in {out / 'server.log'})")
+    fields = {key: sampling[key] for key in ("temperature", "top_p", "max_tokens")}
     with lm.serve(folder, log=out / "server.log") as url:
-        with ChatClient(
-            url,
-            str(folder),
-            temperature=sampling["temperature"],
-            top_p=sampling["top_p"],
-            max_tokens=sampling["max_tokens"],
-            timeout=source.timeout,
-            max_retries=source.max_retries,
-        ) as client:
+        with ChatClient(url, str(folder), timeout=source.timeout, max_retries=source.max_retries, **fields) as client:
             yield lm.ServedModel(client, name)
 
 

@@ -578,19 +578,11 @@ def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None 
     with socket.socket() as sock:  # a free port
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
-    cmd = [
-        sys.executable,
-        "-c",
-        "import sys; from transformers.cli.transformers import main; sys.argv[0] = 'transformers'; sys.exit(main())",
-        "serve",
-        str(folder),
-        "--host",
-        "127.0.0.1",
-        "--port",
-        str(port),
-        "--device",
-        "cpu",
-    ]
+    script = (
+        "import sys; from transformers.cli.transformers import main; sys.argv[0] = 'transformers'; sys.exit(main())"
+    )
+    serve_args = ["serve", str(folder), "--host", "127.0.0.1", "--port", str(port), "--device", "cpu"]
+    cmd = [sys.executable, "-c", script, *serve_args]  # `transformers serve ...` under this interpreter
     env = {**os.environ, "HF_HUB_OFFLINE": "1"}
     with contextlib.ExitStack() as stack:
         sink: IO[bytes] | int = stack.enter_context(open(log, "ab")) if log is not None else subprocess.DEVNULL

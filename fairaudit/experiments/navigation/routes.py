@@ -38,7 +38,7 @@ from fairaudit import InputError, real, whole
 from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, check_maps, require_networkx
 from .synthetic import write_office_floor
-from .topology import door_paths, grid_edges, per_maps
+from .topology import cell_points, door_paths, grid_edges, path_length, per_maps
 
 if TYPE_CHECKING:
     import networkx
@@ -298,8 +298,6 @@ def _route(
     cells = np.array(cells, dtype=np.int64)
     x, y = maps.cell_to_world(cells[:, 0], cells[:, 1])
     points = np.column_stack([x, y])
-    steps = np.abs(np.diff(cells, axis=0)).sum(axis=1)
-    length = float(maps.resolution * (np.sum(steps == 1) + math.sqrt(2.0) * np.sum(steps == 2)))
     labels = maps.room_labels[cells[:, 0], cells[:, 1]]
     rooms = tuple(maps.rooms[int(i)] for i, _ in itertools.groupby(labels[labels >= 0]))  # repeats collapsed
     for a in (cells, points):
@@ -309,7 +307,7 @@ def _route(
         goal=goal,
         cells=cells,
         points=points,
-        length=length,
+        length=path_length(cells, maps.resolution),
         rooms=rooms,
         start_snap=snaps[0],
         goal_snap=snaps[1],
@@ -381,14 +379,8 @@ def route_alternatives(
     if not paths:
         raise InputError("goal", f"cannot be reached from start {start!r} through passable doors", goal)
     return tuple(
-        _route(maps, start, goal, p.cells, (s_snap, g_snap), p.via, _points(maps, p.door_cells)) for p in paths
+        _route(maps, start, goal, p.cells, (s_snap, g_snap), p.via, cell_points(maps, p.door_cells)) for p in paths
     )
-
-
-def _points(maps: Maps, cells: tuple[tuple[int, int], ...]) -> tuple[tuple[float, float], ...]:
-    """(x, y) of the centres of ``cells``, metres, rounded to 1e-9 m (as ``Door.point``)."""
-    centres = (maps.cell_to_world(r, c) for r, c in cells)
-    return tuple((round(float(x), 9), round(float(y), 9)) for x, y in centres)
 
 
 def candidate_routes(

@@ -111,6 +111,24 @@ def _mirror(box: tuple[float, ...]) -> tuple[float, ...]:
     return (FLOOR_SIZE[0] - x1, FLOOR_SIZE[0] - x0, *rest)
 
 
+def _mirrored(spec: _Spec, name: str) -> _Spec:
+    """``spec`` mirrored about x = 6 m, named ``name``: its rectangle, openings, windows, furniture and boards."""
+
+    def side(wall: str, a0: float, a1: float) -> tuple[str, float, float]:
+        if wall in ("west", "east"):  # a wall along y: the opposite wall, the same span
+            return ("east" if wall == "west" else "west", a0, a1)
+        return (wall, FLOOR_SIZE[0] - a1, FLOOR_SIZE[0] - a0)
+
+    return _Spec(
+        name,
+        _mirror(spec.rect),
+        openings=[(*side(w, a0, a1), framed) for w, a0, a1, framed in spec.openings],
+        windows=[(*side(w, a0, a1), z0, z1) for w, a0, a1, z0, z1 in spec.windows],
+        furniture=[(c, _mirror(b)) for c, b in spec.furniture],
+        boards=[(*side(w, a0, a1), z0, z1) for w, a0, a1, z0, z1 in spec.boards],
+    )
+
+
 def _layout() -> list[_Spec]:
     office_1 = _Spec(
         "office_1",
@@ -122,13 +140,6 @@ def _layout() -> list[_Spec]:
             ("chair", (0.85, 1.35, 6.55, 7.05, 0.0, 0.9)),
             ("bookcase", (0.1, 0.5, 5.3, 6.3, 0.0, 2.0)),
         ],
-    )
-    office_2 = _Spec(
-        "office_2",
-        _mirror(office_1.rect),
-        openings=[("south", 12.0 - 3.5, 12.0 - 2.5, True)],
-        windows=[("north", 12.0 - 3.0, 12.0 - 1.0, 0.9, 2.1)],
-        furniture=[(c, _mirror(b)) for c, b in office_1.furniture],
     )
     return [
         _Spec(
@@ -176,7 +187,7 @@ def _layout() -> list[_Spec]:
             ],
         ),
         office_1,
-        office_2,
+        _mirrored(office_1, "office_2"),
         _Spec(
             "storage_1",
             (8.0, 12.0, 0.0, 3.0),
@@ -197,13 +208,6 @@ def _two_corridor_layout() -> list[_Spec]:
             ("chair", (2.95, 3.45, 6.75, 7.1, 0.0, 0.9)),
             ("bookcase", (5.5, 5.9, 5.3, 6.3, 0.0, 2.0)),
         ],
-    )
-    office_2 = _Spec(
-        "office_2",
-        _mirror(office_1.rect),
-        openings=[("east", 5.3, 6.3, True)],
-        windows=[("north", 12.0 - 5.0, 12.0 - 3.0, 0.9, 2.1)],
-        furniture=[(c, _mirror(b)) for c, b in office_1.furniture],
     )
     corridor = [("east", 0.7, 1.7, False), ("east", 3.2, 4.2, False), ("east", 5.3, 6.3, False)]
     return [
@@ -232,7 +236,7 @@ def _two_corridor_layout() -> list[_Spec]:
             ],
         ),
         office_1,
-        office_2,
+        _mirrored(office_1, "office_2"),
         _Spec(
             "storage_1",
             (0.0, 2.0, 6.4, 8.0),

@@ -23,7 +23,7 @@ import functools
 import itertools
 import math
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeVar
 
@@ -36,7 +36,7 @@ from .maps import Maps, check_maps, require_networkx
 if TYPE_CHECKING:
     import networkx
 
-__all__ = ["Door", "DoorPath", "door_paths", "find_doors", "grid_edges", "passable_graph"]
+__all__ = ["Door", "DoorPath", "cell_points", "door_paths", "find_doors", "grid_edges", "passable_graph", "path_length"]
 
 #: Room paths tried per requested candidate before giving up (some may not be realisable on the grid).
 TRIES_PER_CANDIDATE = 4
@@ -140,6 +140,48 @@ def per_maps(build: Callable[[Maps], _T]) -> Callable[[Maps], _T]:
         return made[maps]
 
     return cached
+
+
+def path_length(cells: np.ndarray, resolution: float) -> float:
+    """The length of a grid path: the sum of its step costs, those of :func:`grid_edges`.
+
+    Parameters
+    ----------
+    cells : numpy.ndarray
+        int, shape (k, 2): (row, col) of each cell of the path; consecutive cells are 8-neighbours.
+    resolution : float
+        Side of a cell, metres.
+
+    Returns
+    -------
+    float
+        Metres: ``resolution`` per straight step, ``resolution``·√2 per diagonal one.
+
+    Examples
+    --------
+    >>> round(path_length(np.array([[0, 0], [0, 1], [1, 2]]), 0.5), 6)
+    1.207107
+    """
+    steps = np.abs(np.diff(cells, axis=0)).sum(axis=1)
+    return float(resolution * (np.sum(steps == 1) + math.sqrt(2.0) * np.sum(steps == 2)))
+
+
+def cell_points(maps: Maps, cells: Iterable[tuple[int, int]]) -> tuple[tuple[float, float], ...]:
+    """The centres of grid cells in world coordinates, as :attr:`Door.point` writes them.
+
+    Parameters
+    ----------
+    maps : Maps
+    cells : iterable of (int, int)
+        (row, col) of each cell.
+
+    Returns
+    -------
+    tuple of (float, float)
+        (x, y) of each cell's centre, metres, rounded to 1e-9 m.
+    """
+    centres = (maps.cell_to_world(r, c) for r, c in cells)
+    return tuple((round(float(x), 9), round(float(y), 9)) for x, y in centres)
 
 
 def grid_edges(traversable: np.ndarray, resolution: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -255,13 +297,11 @@ def find_doors(maps: Maps) -> tuple[Door, ...]:
             order = np.lexsort((~first[cr, cc], d2))  # nearest; ties: first room's side, then row-major
             best = int(order[0])
             cell = (int(cr[best]) + r0, int(cc[best]) + c0)
-            x, y = maps.cell_to_world(cell[0], cell[1])
             cells = np.column_stack([cr + r0, cc + c0]).astype(np.int64)
             central = cells[order[d2[order] == d2[best]]]
-            point = (round(float(x), 9), round(float(y), 9))
             for a in (cells, central):
                 a.setflags(write=False)
-            doors.append(Door(rooms=pair, cell=cell, point=point, cells=cells, central=central))
+            doors.append(Door(rooms=pair, cell=cell, point=cell_points(maps, [cell])[0], cells=cells, central=central))
     return tuple(sorted(doors, key=lambda d: (maps.rooms.index(d.rooms[0]), maps.rooms.index(d.rooms[1]), d.cell)))
 
 
@@ -418,8 +458,7 @@ def _realise(maps: Maps, via: list[str], start: tuple[int, int], goal: tuple[int
         piece = _cells(search, layers[i + 1][choice[i + 1]][0])
         pieces.append(piece if i == 0 else piece[1:])
     cells = np.concatenate(pieces)
-    steps = np.abs(np.diff(cells, axis=0)).sum(axis=1)
-    length = float(maps.resolution * (np.sum(steps == 1) + math.sqrt(2.0) * np.sum(steps == 2)))
+    length = path_length(cells, maps.resolution)
     cells.setflags(write=False)
     doors = tuple(d for i in range(1, len(via)) if (d := layers[i][choice[i]][1]) is not None)
     door_cells = tuple(layers[i][choice[i]][0] for i in range(1, len(via)))

@@ -18,7 +18,7 @@ import numpy.typing as npt
 from fairaudit.base.json_values import Report, label
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Population
+from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.worstcase.known_utility import worst_model
 from fairaudit.worstcase.lipschitz_proofs import lipschitz_proof
@@ -120,23 +120,20 @@ def certificate_inputs(spec: Spec, calibrated: Mapping[str, Mechanism | None] | 
             "metric": None if c.metric is None else json_array(c.metric),
             "diameter": _real(c.diameter),
         },
-        "population": {
-            "contexts": [label(v) for v in population.contexts],
-            "groups": [label(v) for v in population.groups],
-            "probabilities": json_array(population.probabilities),
-        },
-        "kernel": None,
+        "population": _table(population, "contexts", "groups"),
+        "kernel": None if kernel is None else _table(kernel, "contexts", "groups", "decisions"),
     }
-    if kernel is not None:
-        out["kernel"] = {
-            "contexts": [label(v) for v in kernel.contexts],
-            "groups": [label(v) for v in kernel.groups],
-            "decisions": [label(v) for v in kernel.decisions],
-            "probabilities": json_array(kernel.probabilities),
-        }
     if calibrated is not None:
         out["calibration"] = {k: None if m is None else mechanism_inputs(m) for k, m in calibrated.items()}
     return out
+
+
+def _table(table: Population | Kernel, *axes: str) -> Report:
+    """A population or a kernel as its certificate records it: the labels of each axis, then ``probabilities``."""
+    return {
+        **{axis: [label(v) for v in getattr(table, axis)] for axis in axes},
+        "probabilities": json_array(table.probabilities),
+    }
 
 
 def _real(x: float | None) -> float | str | None:

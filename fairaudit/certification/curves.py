@@ -369,11 +369,7 @@ def privacy_curve(
         "utility": utility,
         "population": population,
         "context_mechanism": context_mechanism,
-        "gamma": c.gamma,
-        "lower": c.lower,
-        "tau": c.tau,
-        "lipschitz": c.lipschitz,
-        "metric": c.metric,
+        **{name: getattr(c, name) for name in ("gamma", "lower", "tau", "lipschitz", "metric")},
         "spec_epsilon": spec_epsilon,
         "title": title,
     }

@@ -197,17 +197,6 @@ def add_global(p: argparse.ArgumentParser) -> None:
     )
 
 
-def add_max_memory(p: argparse.ArgumentParser) -> None:
-    """``--max-memory SIZE``: the memory the command may take (the parameter ``max_memory``; over the environment's
-    ``FAIRAUDIT_MAX_MEMORY``), read by :func:`fairaudit.base.resources.parse_size`."""
-    p.add_argument(
-        "--max-memory",
-        metavar="SIZE",
-        help="memory the computation may take, e.g. 4G, 512M, 2.5GiB (default: $FAIRAUDIT_MAX_MEMORY, "
-        "else half the memory available); refused with exit 2 when it needs more",
-    )
-
-
 INPUTS = ("data", "spec", "certificate", "published")
 """The arguments that name a command's input files (a file :func:`check_outputs` never lets a command write)."""
 

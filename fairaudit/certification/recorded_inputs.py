@@ -156,31 +156,24 @@ def member_proofs(
     """
     if cal is None or members is None:
         return {}
-    if cal.lipschitz:
-        proofs = {key: _lipschitz(spec, cal, m) for key, m in members.items() if key.startswith("black_box")}
-        return {key: proof for key, proof in proofs.items() if proof is not None}
-    dependent = cal.kind == "global" and not spec.population.independence().independent
+    tau = None if math.isnan(cal.tau) else cal.tau
+    dependent = not cal.lipschitz and cal.kind == "global" and not spec.population.independence().independent
     out: dict[str, Report] = {}
     for key in ("black_box", "black_box_above"):
         m = members.get(key)
-        if m is None or len(m.inputs) < 2:
+        if m is None or (len(m.inputs) < 2 and not cal.lipschitz):
             continue
-        if dependent:
-            worst = worst_model(m, spec.utility, context_mechanism=spec.context_mechanism,
-                                population=spec.population, tau=spec.tau)  # fmt: skip
+        if cal.lipschitz:
+            metric = None if spec.metric is None else np.asarray(spec.metric, dtype=float).tolist()
+            proof = lipschitz_proof(mechanism_inputs(m), cal.lower, cal.gamma, tau, cal.lipschitz, metric)
+        elif dependent:
+            proof = worst_model(m, spec.utility, context_mechanism=spec.context_mechanism,
+                                population=spec.population, tau=spec.tau).to_dict()  # fmt: skip
         else:
             k = len(m.inputs)
             population = Population([[1 / k] * k], ["x"], m.inputs)
-            worst = worst_model(m, Utility([cal.gamma, cal.lower], ["gamma", "lower"]), population=population,
-                                tau=None if math.isnan(cal.tau) else cal.tau)  # fmt: skip
-        out[key] = worst.to_dict()
+            proof = worst_model(m, Utility([cal.gamma, cal.lower], ["gamma", "lower"]), population=population,
+                                tau=tau).to_dict()  # fmt: skip
+        if proof is not None:
+            out[key] = proof
     return out
-
-
-def _lipschitz(spec: Spec, cal: Calibration, m: Mechanism | None) -> Report | None:
-    """The proof of one member's worst case over the class Lipschitz in the group, on the numbers it records."""
-    if m is None:
-        return None
-    metric = None if spec.metric is None else np.asarray(spec.metric, dtype=float).tolist()
-    tau = None if math.isnan(cal.tau) else cal.tau
-    return lipschitz_proof(mechanism_inputs(m), cal.lower, cal.gamma, tau, cal.lipschitz, metric)

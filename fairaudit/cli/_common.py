@@ -165,11 +165,9 @@ def text_format(args: argparse.Namespace) -> CsvFormat:
 
 def epsilons(text: str) -> FloatArray:
     """A grid of privacy budgets START:STOP:NUM (nats), as ``numpy.linspace``."""
-    parts = text.split(":")
     try:
-        if len(parts) != 3:
-            raise ValueError
-        start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
+        first, last, count = text.split(":")  # (not three parts: a ValueError too)
+        start, stop, num = float(first), float(last), int(count)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected START:STOP:NUM, e.g. 0:5:61, got {text!r}") from None
     if not (0 <= start <= stop < float("inf")) or not 1 <= num <= 100_000:

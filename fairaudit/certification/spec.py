@@ -215,9 +215,9 @@ class Spec:
                     )
                 return indicator(value, self.decisions, name=u.name)
             arr = np.asarray(u.values, dtype=float)
-            if arr.ndim == 1:
-                return from_table(arr, self.decisions, name=u.name or "table")
-            return from_table(arr, self.decisions, self.contexts, self.groups, name=u.name or "table")
+            # a list over decisions, or a [context][group][decision] table
+            contexts, groups = (None, None) if arr.ndim == 1 else (self.contexts, self.groups)
+            return from_table(arr, self.decisions, contexts, groups, name=u.name or "table")
         except InputError as exc:
             if exc.field.startswith(self.source):
                 raise

@@ -492,9 +492,8 @@ def _curve(
     on_family = None
     if spec is not None and mark is not None:
         on_family = bool(math.isfinite(mark) and _same_mechanism(spec.sensitive_mechanism, family(mark)))
-    for arr in out.values():
+    for arr in (grid, *out.values()):
         arr.setflags(write=False)
-    grid.setflags(write=False)
     return PrivacyCurve(
         epsilon=grid,
         **out,

@@ -22,7 +22,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, TypedDict
+from typing import TYPE_CHECKING
 
 from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.json_values import Report, canonical_digest, label, number
@@ -37,10 +37,9 @@ from fairaudit.certification.recorded_inputs import (
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.composition import compose
-from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.independence import independence_factor
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Kernel, Law, Population
+from fairaudit.laws.tables import Kernel, Law
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.metrics.bounds import Bound, corollary_bound, paper_bound, tight_bound
@@ -580,13 +579,6 @@ def _tightest(results: list[Calibration]) -> Calibration | None:
     return bad[0] if bad else min(results, key=lambda c: c.epsilon)
 
 
-class _FamilyClass(TypedDict):
-    """What every calibration of a spec shares: its mechanism family and population."""
-
-    family: MechanismFamily
-    population: Population
-
-
 def _calibrations(
     spec: Spec, kernel: Kernel | None, t: TargetSpec, independent: bool
 ) -> tuple[Calibration | None, Calibration | None, str, tuple[str, ...]]:
@@ -606,7 +598,6 @@ def _calibrations(
     goals = [(kind, v) for kind, v in (("local", t.local), ("global", t.global_)) if v is not None]
     if not goals:
         return None, None, "", ()
-    common = _FamilyClass(family=family, population=spec.population)
     black: list[Calibration] = []
     reason = ""
     if spec.utility.depends_on_group and spec.model.utility.lipschitz is None:
@@ -623,7 +614,8 @@ def _calibrations(
                         utility_class=replace(spec.utility_class, diameter=None),
                         utility=spec.utility if dependent else None,
                         context_mechanism=spec.context_mechanism if dependent else None,
-                        **common,
+                        family=family,
+                        population=spec.population,
                     )
                 )
             except InputError as exc:
@@ -645,7 +637,8 @@ def _calibrations(
                 kernel=kernel,
                 utility=spec.utility,
                 context_mechanism=spec.context_mechanism,
-                **common,
+                family=family,
+                population=spec.population,
             )
             for kind, goal in goals
         ]

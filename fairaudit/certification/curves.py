@@ -369,11 +369,7 @@ def privacy_curve(
         "utility": utility,
         "population": population,
         "context_mechanism": context_mechanism,
-        "gamma": c.gamma,
-        "lower": c.lower,
-        "tau": c.tau,
-        "lipschitz": c.lipschitz,
-        "metric": c.metric,
+        **{name: getattr(c, name) for name in ("gamma", "lower", "tau", "lipschitz", "metric")},
         "spec_epsilon": spec_epsilon,
         "title": title,
     }
@@ -496,9 +492,8 @@ def _curve(
     on_family = None
     if spec is not None and mark is not None:
         on_family = bool(math.isfinite(mark) and _same_mechanism(spec.sensitive_mechanism, family(mark)))
-    for arr in out.values():
+    for arr in (grid, *out.values()):
         arr.setflags(write=False)
-    grid.setflags(write=False)
     return PrivacyCurve(
         epsilon=grid,
         **out,

@@ -18,7 +18,7 @@ import numpy.typing as npt
 from fairaudit.base.json_values import Report, label
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Population
+from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.worstcase.known_utility import worst_model
 from fairaudit.worstcase.lipschitz_proofs import lipschitz_proof
@@ -120,23 +120,20 @@ def certificate_inputs(spec: Spec, calibrated: Mapping[str, Mechanism | None] | 
             "metric": None if c.metric is None else json_array(c.metric),
             "diameter": _real(c.diameter),
         },
-        "population": {
-            "contexts": [label(v) for v in population.contexts],
-            "groups": [label(v) for v in population.groups],
-            "probabilities": json_array(population.probabilities),
-        },
-        "kernel": None,
+        "population": _table(population, "contexts", "groups"),
+        "kernel": None if kernel is None else _table(kernel, "contexts", "groups", "decisions"),
     }
-    if kernel is not None:
-        out["kernel"] = {
-            "contexts": [label(v) for v in kernel.contexts],
-            "groups": [label(v) for v in kernel.groups],
-            "decisions": [label(v) for v in kernel.decisions],
-            "probabilities": json_array(kernel.probabilities),
-        }
     if calibrated is not None:
         out["calibration"] = {k: None if m is None else mechanism_inputs(m) for k, m in calibrated.items()}
     return out
+
+
+def _table(table: Population | Kernel, *axes: str) -> Report:
+    """A population or a kernel as its certificate records it: the labels of each axis, then ``probabilities``."""
+    return {
+        **{axis: [label(v) for v in getattr(table, axis)] for axis in axes},
+        "probabilities": json_array(table.probabilities),
+    }
 
 
 def _real(x: float | None) -> float | str | None:
@@ -159,31 +156,24 @@ def member_proofs(
     """
     if cal is None or members is None:
         return {}
-    if cal.lipschitz:
-        proofs = {key: _lipschitz(spec, cal, m) for key, m in members.items() if key.startswith("black_box")}
-        return {key: proof for key, proof in proofs.items() if proof is not None}
-    dependent = cal.kind == "global" and not spec.population.independence().independent
+    tau = None if math.isnan(cal.tau) else cal.tau
+    dependent = not cal.lipschitz and cal.kind == "global" and not spec.population.independence().independent
     out: dict[str, Report] = {}
     for key in ("black_box", "black_box_above"):
         m = members.get(key)
-        if m is None or len(m.inputs) < 2:
+        if m is None or (len(m.inputs) < 2 and not cal.lipschitz):
             continue
-        if dependent:
-            worst = worst_model(m, spec.utility, context_mechanism=spec.context_mechanism,
-                                population=spec.population, tau=spec.tau)  # fmt: skip
+        if cal.lipschitz:
+            metric = None if spec.metric is None else np.asarray(spec.metric, dtype=float).tolist()
+            proof = lipschitz_proof(mechanism_inputs(m), cal.lower, cal.gamma, tau, cal.lipschitz, metric)
+        elif dependent:
+            proof = worst_model(m, spec.utility, context_mechanism=spec.context_mechanism,
+                                population=spec.population, tau=spec.tau).to_dict()  # fmt: skip
         else:
             k = len(m.inputs)
             population = Population([[1 / k] * k], ["x"], m.inputs)
-            worst = worst_model(m, Utility([cal.gamma, cal.lower], ["gamma", "lower"]), population=population,
-                                tau=None if math.isnan(cal.tau) else cal.tau)  # fmt: skip
-        out[key] = worst.to_dict()
+            proof = worst_model(m, Utility([cal.gamma, cal.lower], ["gamma", "lower"]), population=population,
+                                tau=tau).to_dict()  # fmt: skip
+        if proof is not None:
+            out[key] = proof
     return out
-
-
-def _lipschitz(spec: Spec, cal: Calibration, m: Mechanism | None) -> Report | None:
-    """The proof of one member's worst case over the class Lipschitz in the group, on the numbers it records."""
-    if m is None:
-        return None
-    metric = None if spec.metric is None else np.asarray(spec.metric, dtype=float).tolist()
-    tau = None if math.isnan(cal.tau) else cal.tau
-    return lipschitz_proof(mechanism_inputs(m), cal.lower, cal.gamma, tau, cal.lipschitz, metric)

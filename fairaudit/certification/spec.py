@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Hashable
 from dataclasses import replace
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -125,7 +126,6 @@ class Spec:
         self.given_population = self._population()
         self._kernel: Kernel | None | bool = False  # False: not read yet
         self.weighted_table: CountTable | None = None  # [model] records with weight_column: their weighted counts
-        self._default_population: Population | None = None
         self.utility = self._utility()
         u = model.utility
         if u.lower is not None and u.lower > self.utility.lower + 1e-12:
@@ -215,9 +215,9 @@ class Spec:
                     )
                 return indicator(value, self.decisions, name=u.name)
             arr = np.asarray(u.values, dtype=float)
-            if arr.ndim == 1:
-                return from_table(arr, self.decisions, name=u.name or "table")
-            return from_table(arr, self.decisions, self.contexts, self.groups, name=u.name or "table")
+            # a list over decisions, or a [context][group][decision] table
+            contexts, groups = (None, None) if arr.ndim == 1 else (self.contexts, self.groups)
+            return from_table(arr, self.decisions, contexts, groups, name=u.name or "table")
         except InputError as exc:
             if exc.field.startswith(self.source):
                 raise
@@ -299,7 +299,7 @@ class Spec:
         """True when both mechanisms release the labels they take (the model's table is indexed by true values)."""
         return all(tuple(m.outputs) == tuple(m.inputs) for m in (self.sensitive_mechanism, self.context_mechanism))
 
-    @property
+    @cached_property
     def population(self) -> Population:
         """P(X, A), shape (n_contexts, n_groups), and where it comes from (its ``source``).
 
@@ -317,17 +317,12 @@ class Spec:
         """
         if self.given_population is not None:
             return self.given_population
-        if self._default_population is None:
-            kernel = self.kernel()
-            counts = None if kernel is None or not self.sees_inputs else kernel.cell_counts
-            if counts is not None and counts.sum() > 0:
-                self._default_population = Population.from_counts(counts, self.contexts, self.groups)
-            else:
-                pa = np.full(len(self.groups), 1.0 / len(self.groups))
-                self._default_population = Population.independent(
-                    self._context_distribution, pa, self.contexts, self.groups, source="assumed"
-                )
-        return self._default_population
+        kernel = self.kernel()
+        counts = None if kernel is None or not self.sees_inputs else kernel.cell_counts
+        if counts is not None and counts.sum() > 0:
+            return Population.from_counts(counts, self.contexts, self.groups)
+        pa = np.full(len(self.groups), 1.0 / len(self.groups))
+        return Population.independent(self._context_distribution, pa, self.contexts, self.groups, source="assumed")
 
     def kernel(self) -> Kernel | None:
         """The decision model P(U | X̃, Ã) from [model], or None (read once, then kept).

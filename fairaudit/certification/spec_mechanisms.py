@@ -100,11 +100,9 @@ def mechanism_family(spec: MechanismSpec, groups: tuple) -> MechanismFamily | No
     if len(groups) < 2:
         return None
     if spec.mechanism == "product" and spec.components:
-        values = [c.values or [] for c in spec.components]  # (every component has values: checked when built)
-        eps = [_component_epsilon(c) for c in spec.components]
-        finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
+        values, weights = _split(spec.components)  # (every component has values: checked when built)
         if all(len(v) >= 2 for v in values):
-            return product_family(*values, weights=eps if finite else None)
+            return product_family(*values, weights=weights)
     return randomized_response_family(groups)
 
 
@@ -141,9 +139,7 @@ def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> Mechanism
         of another number, mixtures of another number than the groups or that no member separates beyond a finite
         ε, or a family that does not pass through ``mechanism``.
     """
-    eps = [_component_epsilon(c) for c in spec.components]
-    finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
-    values = [c.values or [] for c in spec.components]  # (every component has values: FamilySpec checks it)
+    values, weights = _split(spec.components)  # (every component has values: FamilySpec checks it)
     if spec.mixtures is not None and len(spec.mixtures) != len(mechanism.inputs):
         problem = f"needs one mixture per group ({len(mechanism.inputs)}, the inputs of [privacy.sensitive])"
         raise InputError(f"{field}.mixtures", problem, len(spec.mixtures))
@@ -154,7 +150,7 @@ def view_family(spec: FamilySpec, mechanism: Mechanism, field: str) -> Mechanism
             rows=[tuple(r) for r in rows],
             inputs=mechanism.inputs,
             outputs=mechanism.outputs,
-            weights=eps if finite else None,
+            weights=weights,
             name=spec.name or mechanism.name,
             mixture=mixture,
         )
@@ -178,6 +174,13 @@ def _mixture(mixtures: list[list[WeightedInput]]) -> tuple[list[list], npt.NDArr
         for m in mix:
             w[g, rows.index(m.input)] += m.weight
     return rows, None if w.shape == (len(rows),) * 2 and np.array_equal(w, np.eye(len(rows))) else w
+
+
+def _split(components: list[MechanismSpec]) -> tuple[list[list], list[float] | None]:
+    """A product's components' values, and the weights its family splits ε by: the components' ε, or None (equally)
+    when they are all 0 or one is infinite."""
+    eps = [_component_epsilon(c) for c in components]
+    return [c.values or [] for c in components], eps if all(map(math.isfinite, eps)) and sum(eps) > 0 else None
 
 
 def _component_epsilon(spec: MechanismSpec) -> float:

@@ -203,10 +203,7 @@ def match_label(value: Hashable, labels: tuple) -> Hashable | None:
     """The label equal to ``value``, or whose text equals its text."""
     if value in labels:
         return value
-    for lab in labels:
-        if format_label(lab) == format_label(value):
-            return lab
-    return None
+    return next((lab for lab in labels if format_label(lab) == format_label(value)), None)
 
 
 def _relabel(table: CountTable, contexts: tuple, groups: tuple, decisions: tuple) -> CountTable:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
 from pydantic import Strict as StrictType
 
 from fairaudit.base.checks import real
@@ -50,16 +50,16 @@ def _numbers_in(v: list[Any], levels: int, where: str = "") -> None:
             raise FieldProblem(here, "is too large for a number", x)
 
 
+Labels = Annotated[list[Any] | None, AfterValidator(lambda v, info: distinct_labels(v, info.field_name or "values"))]
+"""A list of labels, distinct as text and as values, of one kind (:func:`~fairaudit.base.toml_documents.distinct_labels`,
+whose errors name the field)."""
+
+
 class AttributeSpec(StrictModel):
     """An alphabet: a name and its ordered values."""
 
     name: str
-    values: list[Any] | None = None
-
-    @field_validator("values")
-    @classmethod
-    def _distinct(cls, v: list[Any] | None) -> list[Any] | None:
-        return distinct_labels(v)
+    values: Labels = None
 
 
 class DecisionSpec(AttributeSpec):
@@ -81,15 +81,10 @@ class MechanismSpec(StrictModel):
     epsilon: Number | None = Field(default=None, ge=0)
     keep: Number | None = Field(default=None, gt=0, le=1)
     rows: list[list[Number]] | None = None
-    outputs: list[Any] | None = None
-    values: list[Any] | None = None
+    outputs: Labels = None
+    values: Labels = None
     components: list[MechanismSpec] | None = None
     name: str | None = None
-
-    @field_validator("values", "outputs")
-    @classmethod
-    def _distinct(cls, v: list[Any] | None, info: ValidationInfo) -> list[Any] | None:
-        return distinct_labels(v, info.field_name or "values")
 
     @model_validator(mode="after")
     def _fields_fit(self) -> Self:

@@ -10,7 +10,6 @@ beside the spec's own utility on the same law.
 
 from __future__ import annotations
 
-import math  # noqa: F401 (the examples use it)
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,6 +112,7 @@ def spec_worst_utility(
     with 0.3³: L = 3 ln(7/3). The worst utility over [0, 1] with τ = 0.02 is a multiple of the spec's own
     g = 1{chosen} (g(not chosen) = 0), and shows the same L:
 
+    >>> import math
     >>> w = spec_worst_utility("examples/hr_office/hr_office.toml")
     >>> round(w.worst.local_fairness.value, 9), round(3 * math.log(7 / 3), 9), round(w.observed.local_fairness.value, 9)
     (2.541893581, 2.541893581, 2.541893581)

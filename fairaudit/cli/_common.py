@@ -165,11 +165,9 @@ def text_format(args: argparse.Namespace) -> CsvFormat:
 
 def epsilons(text: str) -> FloatArray:
     """A grid of privacy budgets START:STOP:NUM (nats), as ``numpy.linspace``."""
-    parts = text.split(":")
     try:
-        if len(parts) != 3:
-            raise ValueError
-        start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
+        first, last, count = text.split(":")  # (not three parts: a ValueError too)
+        start, stop, num = float(first), float(last), int(count)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected START:STOP:NUM, e.g. 0:5:61, got {text!r}") from None
     if not (0 <= start <= stop < float("inf")) or not 1 <= num <= 100_000:
@@ -194,17 +192,6 @@ def add_global(p: argparse.ArgumentParser) -> None:
         const="global",
         default="local",
         help="the target is on global g-fairness L-bar",
-    )
-
-
-def add_max_memory(p: argparse.ArgumentParser) -> None:
-    """``--max-memory SIZE``: the memory the command may take (the parameter ``max_memory``; over the environment's
-    ``FAIRAUDIT_MAX_MEMORY``), read by :func:`fairaudit.base.resources.parse_size`."""
-    p.add_argument(
-        "--max-memory",
-        metavar="SIZE",
-        help="memory the computation may take, e.g. 4G, 512M, 2.5GiB (default: $FAIRAUDIT_MAX_MEMORY, "
-        "else half the memory available); refused with exit 2 when it needs more",
     )
 
 

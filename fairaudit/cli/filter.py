@@ -192,10 +192,6 @@ def _write(frame: pd.DataFrame, path: str, output: str) -> None:
     else:
         delimiter = "'" + kind.sep.replace("'", "''") + "'"
         options = f"FORMAT csv, HEADER true, DELIMITER {delimiter}, COMPRESSION {kind.compression or 'none'}"
-    con = duckdb_connection()
-    try:
-        with interrupts_raised():
-            con.register("released", frame)
-            con.execute(f"COPY released TO {quoted} ({options})")
-    finally:
-        con.close()
+    with duckdb_connection() as con, interrupts_raised():  # (the connection closed on the way out)
+        con.register("released", frame)
+        con.execute(f"COPY released TO {quoted} ({options})")

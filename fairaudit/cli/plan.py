@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats import render
 
-from ._common import COMMANDS, Subparsers, add_global, add_max_memory, add_output, emit
+from ._common import COMMANDS, Subparsers, add_global, add_output, emit
 
 if TYPE_CHECKING:
     from fairaudit.statistics.sample_size import SamplePlan
@@ -73,7 +73,12 @@ def add_parser(sub: Subparsers) -> None:
     p.add_argument(
         "--max-n", type=int, default=1_000_000, metavar="N", help="largest n per cell tried (default 1000000)"
     )
-    add_max_memory(p)
+    p.add_argument(  # plan's max_memory, over $FAIRAUDIT_MAX_MEMORY (fairaudit.base.resources.parse_size)
+        "--max-memory",
+        metavar="SIZE",
+        help="memory the computation may take, e.g. 4G, 512M, 2.5GiB (default: $FAIRAUDIT_MAX_MEMORY, "
+        "else half the memory available); refused with exit 2 when it needs more",
+    )
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     add_output(p)
     p.set_defaults(func=run)

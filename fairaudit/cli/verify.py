@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -42,8 +43,6 @@ def add_parser(sub: Subparsers) -> None:
 
 _TOKENS = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"|[\[\]{}]')
 """A JSON string (skipped whole: brackets inside it do not nest) or a bracket."""
-
-_LARGEST = 1.7976931348623157e308
 
 
 def _depth_at(text: str, limit: int) -> int | None:
@@ -77,7 +76,7 @@ def _parse_float(text: str) -> float:
 def _parse_int(text: str) -> int:
     """A JSON integer, refused (ValueError) beyond the floats' range, before Python converts its digits."""
     digits = len(text.lstrip("-"))
-    if digits > 309 or abs(value := int(text)) > _LARGEST:
+    if digits > 309 or abs(value := int(text)) > sys.float_info.max:
         raise ValueError(f"holds an integer of {digits} digits, beyond the largest float (1.8e308)")
     return value
 

@@ -70,10 +70,6 @@ def _fmpq(x: Fraction) -> fmpq:
     return fmpq(x.numerator, x.denominator)
 
 
-def _fraction(x: fmpq) -> Fraction:
-    return Fraction(int(x.p), int(x.q))
-
-
 @dataclass(frozen=True)
 class SimplexOptimum:
     """The outcome of :meth:`ExactProgram.minimize`, every number exact.
@@ -468,9 +464,8 @@ class ExactProgram:
         loose = [v for v, s in enumerate(status) if s == "zero"] if "zero" in status else []
         for v in sorted({*self._unbounded, *loose}):
             s = status[v]
-            if (s == "lower" and self.lower[v] is None) or (s == "upper" and self.upper[v] is None):
-                status[v] = _column_status(self.lower[v], self.upper[v])
-            if s == "zero" and (self.lower[v] is not None or self.upper[v] is not None):
+            wrong = (s == "lower" and self.lower[v] is None) or (s == "upper" and self.upper[v] is None)
+            if wrong or (s == "zero" and (self.lower[v] is not None or self.upper[v] is not None)):
                 status[v] = _column_status(self.lower[v], self.upper[v])
         return status
 
@@ -534,7 +529,8 @@ def _highs_statuses() -> dict[Status, Any]:
 
 
 def _fraction_of(v: Any) -> Fraction:
-    return v if isinstance(v, Fraction) else Fraction(v) if isinstance(v, int) else _fraction(v)
+    """An exact number (Fraction, int or python-flint's fmpq) as a Fraction."""
+    return v if isinstance(v, Fraction) else Fraction(v) if isinstance(v, int) else Fraction(int(v.p), int(v.q))
 
 
 def _finite(name: str, index: Any, v: Any) -> Fraction:

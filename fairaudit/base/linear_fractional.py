@@ -16,6 +16,7 @@ Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs: ``proofs/linear
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -413,11 +414,8 @@ class FractionalProgram:
     def _blocks(self, duals: Sequence[Any] | npt.NDArray[np.float64] | None) -> tuple[tuple[Any, ...], ...]:
         """The exact row duals of the last step as (ν on A_ub, η on A_eq), exactly; ν = −y ≥ 0."""
         assert duals is not None
-        out, start = [], 0
-        for a, _, _ in self._rows:
-            out.append(tuple(-v for v in duals[start : start + a.shape[0]]))
-            start += a.shape[0]
-        return tuple(out)
+        ends = list(itertools.accumulate(a.shape[0] for a, _, _ in self._rows))
+        return tuple(tuple(-v for v in duals[start:end]) for start, end in zip([0, *ends], ends))
 
 
 def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:

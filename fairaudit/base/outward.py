@@ -396,11 +396,10 @@ def _ends(q: Fraction, ln: bool) -> tuple[Fraction, Fraction]:
     return _rational(lower, offset), _rational(upper, offset)
 
 
-def _float_end(q: Fraction, ln: bool, upward: bool) -> float:
-    """ln q or e^q (:func:`_ball_ends`'s arguments) rounded to a float on the stated side: an end of the ball, rounded
-    outward by :func:`fraction_up` or :func:`fraction_down`."""
-    lower, upper, offset = _ball_ends(q, ln)
-    return fraction_up(_rational(upper, offset)) if upward else fraction_down(_rational(lower, offset))
+def _outward(ends: tuple[Fraction, Fraction], upward: bool) -> float:
+    """The upper end of ``ends`` rounded up (:func:`fraction_up`), or the lower end rounded down (``upward`` False):
+    a float on the stated side of the value they enclose."""
+    return fraction_up(ends[1]) if upward else fraction_down(ends[0])
 
 
 def _ln(x: Exact, upward: bool) -> float:
@@ -414,9 +413,7 @@ def _ln(x: Exact, upward: bool) -> float:
         raise ValueError(f"ln of a negative number: {x!r}")
     if q == 0:
         return -math.inf
-    if q == 1:
-        return 0.0
-    return _float_end(q, True, upward)
+    return _outward(ln_bounds(q), upward)
 
 
 def _exp(x: Exact, upward: bool) -> float:
@@ -426,13 +423,11 @@ def _exp(x: Exact, upward: bool) -> float:
             raise ValueError(f"exp of NaN: {x!r}")
         return math.inf if x > 0 else 0.0
     q = Fraction(x)
-    if q == 0:
-        return 1.0
     if abs(q) > _EXP_FAR:  # beyond the floats either way: no ball needed
         if upward:
             return math.inf if q > 0 else _TINY
         return sys.float_info.max if q > 0 else 0.0
-    return _float_end(q, False, upward)
+    return _outward(exp_bounds(q), upward)
 
 
 def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:

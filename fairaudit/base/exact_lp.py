@@ -136,14 +136,10 @@ class _Basis:
         x = [0 if self.status[j] == "basic" else self.at(j) for j in range(n)]
         ax = prog.times(x)
         rhs = [self.at(n + i) - ax[i] for i in self.rows]
-        for j, v in zip(self.cols, self._solved(rhs, transposed=False), strict=True):  # (K singular: ZeroDivisionError)
-            x[j] = v
-        self.x = x
-        ax = prog.times(x)
+        self.x = _scatter(x, self.cols, self._solved(rhs, transposed=False))  # (K singular: ZeroDivisionError)
+        ax = prog.times(self.x)
         self.r = [ax[i] if self.status[n + i] == "basic" else self.at(n + i) for i in range(m)]
-        self.y: list[Any] = [0] * m
-        for i, v in zip(self.rows, self._solved([prog.c[j] for j in self.cols], transposed=True), strict=True):
-            self.y[i] = v
+        self.y = _scatter([0] * m, self.rows, self._solved([prog.c[j] for j in self.cols], transposed=True))
         ya = prog.transposed_times(self.y)
         self.d = [c - t for c, t in zip(prog.c, ya, strict=True)]
 
@@ -172,16 +168,12 @@ class _Basis:
             dx = [-t for t in self._solved([prog.flat[i * n + v] for i in self.rows], transposed=False)]
         else:
             dx = self._solved([1 if i == v - n else 0 for i in self.rows], transposed=False)
-        step: list[Any] = [0] * n
-        for j, t in zip(self.cols, dx, strict=True):
-            step[j] = t
+        step = _scatter([0] * n, self.cols, dx)
         if v < n:
             step[v] = 1
         moved = prog.times(step)
         out = dict(zip(self.cols, dx, strict=True))
-        for i in range(prog.m):
-            if self.status[n + i] == "basic":
-                out[n + i] = moved[i]
+        out.update({n + i: moved[i] for i in range(prog.m) if self.status[n + i] == "basic"})
         return out
 
     def row_rates(self, b: int) -> dict[int, Any]:
@@ -192,17 +184,11 @@ class _Basis:
         else:
             unit = [prog.flat[(b - n) * n + j] for j in self.cols]
         w = [-t for t in self._solved(unit, transposed=True)]
-        weights: list[Any] = [0] * prog.m
-        for i, t in zip(self.rows, w, strict=True):
-            weights[i] = t
+        weights = _scatter([0] * prog.m, self.rows, w)
         if b >= n:
             weights[b - n] = 1  # r_b = A_b·x: its own row, then the basic columns' share through w
         through = prog.transposed_times(weights)
-        rates: dict[int, Any] = {}
-        for v in range(n + prog.m):
-            if self.status[v] != "basic":
-                rates[v] = through[v] if v < n else -weights[v - n]
-        return rates
+        return {v: through[v] if v < n else -weights[v - n] for v in range(n + prog.m) if self.status[v] != "basic"}
 
     def infeasible(self) -> int | None:
         """The lowest-indexed basic variable outside its bounds, or None."""
@@ -224,6 +210,13 @@ class _Basis:
             if (s == "upper" and d > 0) or (s == "zero" and d > 0):
                 return v, -1
         return None
+
+
+def _scatter(out: list[Any], at: Sequence[int], values: Sequence[Any]) -> list[Any]:
+    """``out`` with ``values`` written at the indices ``at``, in place (a basic solution's entries into its vector)."""
+    for i, v in zip(at, values, strict=True):
+        out[i] = v
+    return out
 
 
 def _column_status(lower: Any, upper: Any) -> Status:

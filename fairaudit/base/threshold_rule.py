@@ -300,12 +300,10 @@ def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: in
     >>> box_point(0.0, 1.0, np.array([1, 0, 2]), 1, 0.25).tolist()    # cell 1 up, cell 0 a quarter up
     [0.25, 1.0, 0.0]
     """
-    n = order.shape[-1]
-    lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,)).copy()
-    hi = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    lo, hi = (np.broadcast_to(np.asarray(v, dtype=float), order.shape) for v in (lower, upper))
     h = lo.copy()
     h[order[:k]] = hi[order[:k]]
-    if frac > 0 and k < n:
+    if frac > 0 and k < len(order):
         o = order[k]
         h[o] = lo[o] + frac * (hi[o] - lo[o])
     return h

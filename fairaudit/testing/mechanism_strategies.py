@@ -60,9 +60,7 @@ def _pure_matrix(draw: st.DrawFn, n_in: int, n_out: int, epsilon: float, allow_z
             # so ε(M(s)) rises continuously from 0 to inf; it reaches ε at the smallest crossing
             # s = q_o (e^ε − 1) / (x − e^ε y) over triples with x > e^ε y.
             t = math.exp(epsilon)
-            x = r[:, None, :]
-            y = r[None, :, :]
-            gap = x - t * y
+            gap = r[:, None, :] - t * r[None, :, :]  # x − e^ε y for every pair of rows and output
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(gap > 0, q * (t - 1.0) / gap, np.inf)
             s_star = float(s.min())

@@ -374,13 +374,11 @@ class PrivacyFilter:
             if t is None:
                 return 1.0 if self.move == 0 else 0.0
             return fraction_up(max(Fraction(0), (self.keep - t * self.move) / self.denominator))
-        best = Fraction(0)
-        for p, q in itertools.permutations(self.numerator_rows(), 2):
-            if t is None:
-                total = Fraction(sum(x for x, y in zip(p, q) if y == 0))
-            else:
-                total = sum((x - t * y for x, y in zip(p, q) if x > t * y), Fraction(0))
-            best = max(best, total)
+        pairs = itertools.permutations(self.numerator_rows(), 2)  # (two inputs at least: never empty)
+        if t is None:
+            best = Fraction(max(sum(x for x, y in zip(p, q) if y == 0) for p, q in pairs))
+        else:
+            best = max(sum((x - t * y for x, y in zip(p, q) if x > t * y), Fraction(0)) for p, q in pairs)
         return fraction_up(best / self.denominator)
 
     def numerator_rows(self) -> Rows:
@@ -590,12 +588,7 @@ def _ratio(f: PrivacyFilter) -> Fraction | float:
     if f.kind == "product":
         parts = [c.ratio for c in f.components]
         return math.inf if any(isinstance(r, float) for r in parts) else math.prod(parts, start=Fraction(1))
-    best = Fraction(1)
-    for column in zip(*f.rows):
-        top, low = max(column), min(column)
-        if top == 0:
-            continue
-        if low == 0:
-            return math.inf
-        best = max(best, Fraction(top, low))
-    return best
+    extremes = [(max(column), min(column)) for column in zip(*f.rows) if any(column)]  # (all-zero columns: no ratio)
+    if any(low == 0 for _, low in extremes):
+        return math.inf
+    return max((Fraction(top, low) for top, low in extremes), default=Fraction(1))

@@ -141,8 +141,7 @@ def populations(
     # columns must keep positive mass among live contexts
     rows = np.flatnonzero(live)
     w[rows[0], w[rows].sum(axis=0) == 0] = 1.0
-    p = w / w.sum()
-    pop = Population(p, xs, gs)
+    pop = Population(w / w.sum(), xs, gs)
     if pop.independence().max_deviation < 1e-6:
         total = w.sum() + 1.0
         w[rows[0], 0] += total
@@ -203,9 +202,7 @@ def kernels(
     if deterministic is None:
         deterministic = draw(st.booleans())
     if deterministic:
-        choice = draws.integers(draw, shape[:2], 0, shape[2] - 1)
-        probs = np.zeros(shape)
-        np.put_along_axis(probs, choice[..., None], 1.0, axis=-1)
+        probs = np.eye(shape[2])[draws.integers(draw, shape[:2], 0, shape[2] - 1)]  # (one-hot rows)
     else:
         probs = draws.rows(draw, shape, allow_zeros)
     return Kernel(probs, xs, gs, us)

@@ -38,7 +38,7 @@ from fairaudit.base.labels import as_labels, is_hashable
 from fairaudit.base.outward import exp_down, fraction_up, log_up
 from fairaudit.filter.exact_sampling import RandomBytes, below, pick, uniform_below, words
 from fairaudit.filter.filter_format import FORMAT, FORMAT_VERSION, KINDS, json_labels, parameters_filter
-from fairaudit.filter.rationals import Rows, as_rows, exact_number, reduced
+from fairaudit.filter.rationals import Rows, as_rows, exact_number
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
 
@@ -195,14 +195,15 @@ class PrivacyFilter:
                 "randomized_response", "give exactly one of `epsilon` and `keep`", {"epsilon": epsilon, "keep": keep}
             )
         eps: float | None = None  # (the ε asked for, when made from ε)
+        keep_n, move_n = 1, 0  # keep / move = t, the ratio of the rows; 1 / 0: the identity (one value, p = 1, ε = inf)
         if keep is not None:
             p = exact_number(keep, "keep")
             if not (Fraction(1, k) <= p <= 1):
                 raise InputError("keep", f"must be a keep probability in [1/k, 1] = [1/{k}, 1]", keep)
-            keep_n, move_n = _rr_numerators(p, k)
+            if k > 1 and p < 1:  # p = t / (t + k − 1)
+                keep_n, move_n = (p * (k - 1) / (1 - p)).as_integer_ratio()
         else:
             eps = check_epsilon(epsilon)
-            keep_n, move_n = 1, 0  # (the identity: one value, or ε = +inf)
             if k > 1 and not math.isinf(eps):  # e^ε ≥ 1: exp_down of a tiny ε may be just below 1
                 keep_n, move_n = max(Fraction(exp_down(eps)), Fraction(1)).as_integer_ratio()
         rounding = _ROUNDED if eps is not None and k > 1 else "exact"
@@ -568,15 +569,6 @@ class PrivacyFilter:
         if data.get("format_version") != FORMAT_VERSION:
             raise InputError("format_version", f"must be {FORMAT_VERSION}", data.get("format_version"))
         return parameters_filter(cls, data, "")
-
-
-def _rr_numerators(p: Fraction, k: int) -> tuple[int, int]:
-    """(keep, move) numerators of randomized response keeping with p, reduced: their denominator is keep + (k − 1)
-    move."""
-    if k == 1:
-        return 1, 0
-    ((keep, move),), _ = reduced(((p.numerator * (k - 1), p.denominator - p.numerator),), p.denominator * (k - 1))
-    return keep, move
 
 
 def _ratio(f: PrivacyFilter) -> Fraction | float:

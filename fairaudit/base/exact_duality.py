@@ -81,12 +81,11 @@ def _exponent(a: FloatArray) -> int:
     return int((ex[nonzero].astype(np.int64) - 53).min()) if nonzero.any() else 0
 
 
-def _dyadic(x: npt.ArrayLike, e: int | None = None) -> Dyadic:
-    """Finite floats as exact integers over one power of two: (object array of int, exponent ``e``, by default the
-    largest that works)."""
+def _dyadic(x: npt.ArrayLike) -> Dyadic:
+    """Finite floats as exact integers over one power of two: (object array of int, the largest exponent that
+    works)."""
     a = np.asarray(x, dtype=float).ravel()
-    if e is None:
-        e = _exponent(a)
+    e = _exponent(a)
     ints, shifts = _significands(a, e)
     return np.left_shift(ints.astype(object), shifts.astype(object)), e
 
@@ -141,8 +140,7 @@ class _Block:
 
     def transpose_times(self, v: Dyadic, n: int) -> Dyadic:
         """Aᵀv exactly, shape (n,): the nonzeros of the rows where v ≠ 0 only, by chunks."""
-        out = np.zeros(n, dtype=object)
-        out[:] = 0
+        out = np.zeros(n, dtype=object)  # (Python's int 0)
         live = np.flatnonzero(np.asarray(v[0] != 0, dtype=bool)[self.rows])
         for s in range(0, live.size, CHUNK):
             k = live[s : s + CHUNK]

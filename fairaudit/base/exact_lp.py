@@ -291,16 +291,12 @@ class ExactProgram:
             exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
             self._floats = np.array([[float(v) for v in r] for r in exact], dtype=np.float64).reshape(self.m, self.n)
             self.flat = [_fmpq(v) if v else 0 for r in exact for v in r]  # A, row-major
-        bounds = [
-            [_checked(name, k, v) for k, v in enumerate(b)]
-            for name, b in (
-                ("col_lower", col_lower),
-                ("row_lower", row_lower),
-                ("col_upper", col_upper),
-                ("row_upper", row_upper),
-            )
-        ]
-        lower_fr, upper_fr = bounds[0] + bounds[1], bounds[2] + bounds[3]
+
+        def checked(name: str, bounds: Sequence[Any]) -> list[Fraction | None]:
+            return [_checked(name, k, v) for k, v in enumerate(bounds)]
+
+        lower_fr = checked("col_lower", col_lower) + checked("row_lower", row_lower)
+        upper_fr = checked("col_upper", col_upper) + checked("row_upper", row_upper)
         for v, (lo, hi) in enumerate(zip(lower_fr, upper_fr, strict=True)):
             if lo is not None and hi is not None and lo > hi:
                 name, k = ("col_lower", v) if v < self.n else ("row_lower", v - self.n)

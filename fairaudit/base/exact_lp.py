@@ -265,7 +265,6 @@ class ExactProgram:
         col_upper: Sequence[Any],
     ) -> None:
         dense = isinstance(matrix, np.ndarray) and matrix.dtype.kind == "f"  # (floats: read in bulk, exactly)
-        rows = [] if dense else [list(r) for r in matrix]
         self.m = len(matrix)
         self.n = len(col_lower)
         for name, bounds, size in (
@@ -288,7 +287,7 @@ class ExactProgram:
             # each finite float at its exact binary value
             self.flat: list[Any] = [fmpq(*v.as_integer_ratio()) if v else 0 for v in self._floats.ravel().tolist()]
         else:
-            exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
+            exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(matrix)]
             self._floats = np.array([[float(v) for v in r] for r in exact], dtype=np.float64).reshape(self.m, self.n)
             self.flat = [_fmpq(v) if v else 0 for r in exact for v in r]  # A, row-major
 

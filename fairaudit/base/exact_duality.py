@@ -337,13 +337,11 @@ def certify_ratio(
         return failed(steps=0, reason="a bound of h is infinite")
     if not math.isfinite(start):
         return failed(steps=0, reason=f"the solver's value is {start}")
-    clean = []
+    ys = [np.asarray(y, dtype=float) for y in duals]
+    if not all(np.all(np.isfinite(y)) for y in ys):
+        return failed(steps=0, reason="the solver's dual is not finite")
     given = rows.rows if isinstance(rows, PreparedRows) else rows
-    for (_, _, kind), y in zip(given, duals, strict=True):
-        y = np.asarray(y, dtype=float)
-        if not np.all(np.isfinite(y)):
-            return failed(steps=0, reason="the solver's dual is not finite")
-        clean.append(np.maximum(y, 0.0) if kind == "le" else y)
+    clean = [np.maximum(y, 0.0) if kind == "le" else y for (_, _, kind), y in zip(given, ys, strict=True)]
     pieces = _pieces(p, q, lower, upper, rows, clean)
     lam = Fraction(up(float(start)))
     for step in range(NEWTON_STEPS + 1):

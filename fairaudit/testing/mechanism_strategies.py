@@ -295,9 +295,8 @@ def product_mechanisms(
     shares: list[float | None] = [None] * n  # each component's ε (None: arbitrary)
     if eps is not None:
         w = draws.weights(draw, (n,), allow_zeros=True)
-        split = [eps * float(wi) / float(w.sum()) for wi in w]
-        split[-1] = max(eps - sum(split[:-1]), 0.0)
-        shares = [*split]
+        split = [eps * float(wi) / float(w.sum()) for wi in w[:-1]]
+        shares = [*split, max(eps - sum(split), 0.0)]  # (the last share: ε less the others')
     components = []
     for i in range(n):
         values = draws.labels(draw, n_values, f"v{i}_", 2, "n_values")

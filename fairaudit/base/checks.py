@@ -85,14 +85,8 @@ def real(
     if isinstance(value, bool) or not isinstance(value, Real):
         raise InputError(name, f"must be {description}", value)
     v = float(value)
-    if (
-        math.isnan(v)
-        or (finite and math.isinf(v))
-        or v < low
-        or v > high
-        or (low_open and v == low)
-        or (high_open and v == high)
-    ):
+    inside = (low < v if low_open else low <= v) and (v < high if high_open else v <= high)  # (False for NaN)
+    if not inside or (finite and math.isinf(v)):
         raise InputError(name, f"must be {description}", value)
     return v
 
@@ -142,11 +136,8 @@ def whole(value: Any, name: str, *, low: int = 0, high: int | None = None) -> in
     ...
     fairaudit.base.errors.InputError: groups: must be a whole number >= 2 (got 2.0)
     """
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, Integral)
-        or not low <= int(value) <= (int(value) if high is None else high)
-    ):
+    not_integer = isinstance(value, bool) or not isinstance(value, Integral)
+    if not_integer or not low <= int(value) <= (int(value) if high is None else high):
         what = f"a whole number >= {low}" + (f" and <= {high}" if high is not None else "")
         raise InputError(name, f"must be {what}", value)
     return int(value)

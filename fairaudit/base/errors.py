@@ -168,10 +168,7 @@ def echo(value: object, limit: int = ECHO_LIMIT) -> str:
         return repr(value)
     if isinstance(value, (str, bytes)):
         return repr(value) if len(value) <= limit else f"{value[:limit]!r}… ({len(value)} characters)"
-    text = " ".join(repr(value).split())
-    if len(text) > limit:
-        return f"{text[:limit]}… ({len(text)} characters)"
-    return text
+    return cut(" ".join(repr(value).split()), limit)
 
 
 def cut(text: object, limit: int = ECHO_LIMIT) -> str:

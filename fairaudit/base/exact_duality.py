@@ -81,12 +81,11 @@ def _exponent(a: FloatArray) -> int:
     return int((ex[nonzero].astype(np.int64) - 53).min()) if nonzero.any() else 0
 
 
-def _dyadic(x: npt.ArrayLike, e: int | None = None) -> Dyadic:
-    """Finite floats as exact integers over one power of two: (object array of int, exponent ``e``, by default the
-    largest that works)."""
+def _dyadic(x: npt.ArrayLike) -> Dyadic:
+    """Finite floats as exact integers over one power of two: (object array of int, the largest exponent that
+    works)."""
     a = np.asarray(x, dtype=float).ravel()
-    if e is None:
-        e = _exponent(a)
+    e = _exponent(a)
     ints, shifts = _significands(a, e)
     return np.left_shift(ints.astype(object), shifts.astype(object)), e
 
@@ -141,8 +140,7 @@ class _Block:
 
     def transpose_times(self, v: Dyadic, n: int) -> Dyadic:
         """Aᵀv exactly, shape (n,): the nonzeros of the rows where v ≠ 0 only, by chunks."""
-        out = np.zeros(n, dtype=object)
-        out[:] = 0
+        out = np.zeros(n, dtype=object)  # (Python's int 0)
         live = np.flatnonzero(np.asarray(v[0] != 0, dtype=bool)[self.rows])
         for s in range(0, live.size, CHUNK):
             k = live[s : s + CHUNK]
@@ -201,14 +199,9 @@ def prepare_rows(rows: Rows, n: int) -> PreparedRows:
     return PreparedRows(rows, n, tuple(_Block.read(a, b, kind) for a, b, kind in rows))
 
 
-def _given(rows: Rows | PreparedRows) -> Rows:
-    """The rows as given, whether prepared or not."""
-    return rows.rows if isinstance(rows, PreparedRows) else rows
-
-
 def _dot(x: Dyadic, y: Dyadic) -> Dyadic:
     """x·y exactly (a scalar)."""
-    return int(np.sum(x[0] * y[0])) if len(x[0]) else 0, x[1] + y[1]
+    return int(np.sum(x[0] * y[0])), x[1] + y[1]
 
 
 def _fraction(x: Dyadic) -> Fraction:
@@ -236,13 +229,13 @@ class _Pieces:
         lo, hi = _align(self.lower, eb), _align(self.upper, eb)
         positive, negative = (r > 0).astype(bool), (r < 0).astype(bool)
         terms = np.where(positive, r * hi, np.where(negative, r * lo, 0))
-        total = Fraction(int(np.sum(terms)) if len(terms) else 0, b) * Fraction(2) ** (e + eb)
+        total = Fraction(int(np.sum(terms)), b) * Fraction(2) ** (e + eb)
         value = _fraction(self.c) + total
         # right derivative: −q_i upper_i where r_i > 0, −q_i lower_i where r_i < 0, −min(q_i lower_i, q_i upper_i) at 0
         qs = _align(self.q, self.q[1])
         zero_low = (qs <= 0).astype(bool)  # q_i ≤ 0: min(q lower, q upper) = q upper
         at = np.where(positive, hi, np.where(negative, lo, np.where(zero_low, hi, lo)))
-        slope = -Fraction(int(np.sum(qs * at)) if len(qs) else 0) * Fraction(2) ** (self.q[1] + eb)
+        slope = -Fraction(int(np.sum(qs * at))) * Fraction(2) ** (self.q[1] + eb)
         return value, slope
 
 
@@ -344,12 +337,11 @@ def certify_ratio(
         return failed(steps=0, reason="a bound of h is infinite")
     if not math.isfinite(start):
         return failed(steps=0, reason=f"the solver's value is {start}")
-    clean = []
-    for (_, _, kind), y in zip(_given(rows), duals, strict=True):
-        y = np.asarray(y, dtype=float)
-        if not np.all(np.isfinite(y)):
-            return failed(steps=0, reason="the solver's dual is not finite")
-        clean.append(np.maximum(y, 0.0) if kind == "le" else y)
+    ys = [np.asarray(y, dtype=float) for y in duals]
+    if not all(np.all(np.isfinite(y)) for y in ys):
+        return failed(steps=0, reason="the solver's dual is not finite")
+    given = rows.rows if isinstance(rows, PreparedRows) else rows
+    clean = [np.maximum(y, 0.0) if kind == "le" else y for (_, _, kind), y in zip(given, ys, strict=True)]
     pieces = _pieces(p, q, lower, upper, rows, clean)
     lam = Fraction(up(float(start)))
     for step in range(NEWTON_STEPS + 1):
@@ -390,11 +382,8 @@ def point_ratio(
     >>> w <= Fraction(85, 65) < w + 1e-15
     True
     """
-    if not np.all(np.isfinite(h)):
-        return math.nan
-    if lower is not None and np.any(h < lower):
-        return math.nan
-    if upper is not None and np.any(h > upper):
+    outside = (lower is not None and np.any(h < lower)) or (upper is not None and np.any(h > upper))
+    if outside or not np.all(np.isfinite(h)):
         return math.nan
     import scipy.sparse as sp
 

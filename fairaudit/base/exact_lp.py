@@ -70,10 +70,6 @@ def _fmpq(x: Fraction) -> fmpq:
     return fmpq(x.numerator, x.denominator)
 
 
-def _fraction(x: fmpq) -> Fraction:
-    return Fraction(int(x.p), int(x.q))
-
-
 @dataclass(frozen=True)
 class SimplexOptimum:
     """The outcome of :meth:`ExactProgram.minimize`, every number exact.
@@ -140,14 +136,10 @@ class _Basis:
         x = [0 if self.status[j] == "basic" else self.at(j) for j in range(n)]
         ax = prog.times(x)
         rhs = [self.at(n + i) - ax[i] for i in self.rows]
-        for j, v in zip(self.cols, self._solved(rhs, transposed=False), strict=True):  # (K singular: ZeroDivisionError)
-            x[j] = v
-        self.x = x
-        ax = prog.times(x)
+        self.x = _scatter(x, self.cols, self._solved(rhs, transposed=False))  # (K singular: ZeroDivisionError)
+        ax = prog.times(self.x)
         self.r = [ax[i] if self.status[n + i] == "basic" else self.at(n + i) for i in range(m)]
-        self.y: list[Any] = [0] * m
-        for i, v in zip(self.rows, self._solved([prog.c[j] for j in self.cols], transposed=True), strict=True):
-            self.y[i] = v
+        self.y = _scatter([0] * m, self.rows, self._solved([prog.c[j] for j in self.cols], transposed=True))
         ya = prog.transposed_times(self.y)
         self.d = [c - t for c, t in zip(prog.c, ya, strict=True)]
 
@@ -176,16 +168,12 @@ class _Basis:
             dx = [-t for t in self._solved([prog.flat[i * n + v] for i in self.rows], transposed=False)]
         else:
             dx = self._solved([1 if i == v - n else 0 for i in self.rows], transposed=False)
-        step: list[Any] = [0] * n
-        for j, t in zip(self.cols, dx, strict=True):
-            step[j] = t
+        step = _scatter([0] * n, self.cols, dx)
         if v < n:
             step[v] = 1
         moved = prog.times(step)
         out = dict(zip(self.cols, dx, strict=True))
-        for i in range(prog.m):
-            if self.status[n + i] == "basic":
-                out[n + i] = moved[i]
+        out.update({n + i: moved[i] for i in range(prog.m) if self.status[n + i] == "basic"})
         return out
 
     def row_rates(self, b: int) -> dict[int, Any]:
@@ -196,17 +184,11 @@ class _Basis:
         else:
             unit = [prog.flat[(b - n) * n + j] for j in self.cols]
         w = [-t for t in self._solved(unit, transposed=True)]
-        weights: list[Any] = [0] * prog.m
-        for i, t in zip(self.rows, w, strict=True):
-            weights[i] = t
+        weights = _scatter([0] * prog.m, self.rows, w)
         if b >= n:
             weights[b - n] = 1  # r_b = A_b·x: its own row, then the basic columns' share through w
         through = prog.transposed_times(weights)
-        rates: dict[int, Any] = {}
-        for v in range(n + prog.m):
-            if self.status[v] != "basic":
-                rates[v] = through[v] if v < n else -weights[v - n]
-        return rates
+        return {v: through[v] if v < n else -weights[v - n] for v in range(n + prog.m) if self.status[v] != "basic"}
 
     def infeasible(self) -> int | None:
         """The lowest-indexed basic variable outside its bounds, or None."""
@@ -228,6 +210,13 @@ class _Basis:
             if (s == "upper" and d > 0) or (s == "zero" and d > 0):
                 return v, -1
         return None
+
+
+def _scatter(out: list[Any], at: Sequence[int], values: Sequence[Any]) -> list[Any]:
+    """``out`` with ``values`` written at the indices ``at``, in place (a basic solution's entries into its vector)."""
+    for i, v in zip(at, values, strict=True):
+        out[i] = v
+    return out
 
 
 def _column_status(lower: Any, upper: Any) -> Status:
@@ -276,7 +265,6 @@ class ExactProgram:
         col_upper: Sequence[Any],
     ) -> None:
         dense = isinstance(matrix, np.ndarray) and matrix.dtype.kind == "f"  # (floats: read in bulk, exactly)
-        rows = [] if dense else [list(r) for r in matrix]
         self.m = len(matrix)
         self.n = len(col_lower)
         for name, bounds, size in (
@@ -299,19 +287,15 @@ class ExactProgram:
             # each finite float at its exact binary value
             self.flat: list[Any] = [fmpq(*v.as_integer_ratio()) if v else 0 for v in self._floats.ravel().tolist()]
         else:
-            exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
+            exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(matrix)]
             self._floats = np.array([[float(v) for v in r] for r in exact], dtype=np.float64).reshape(self.m, self.n)
             self.flat = [_fmpq(v) if v else 0 for r in exact for v in r]  # A, row-major
-        bounds = [
-            [_checked(name, k, v) for k, v in enumerate(b)]
-            for name, b in (
-                ("col_lower", col_lower),
-                ("row_lower", row_lower),
-                ("col_upper", col_upper),
-                ("row_upper", row_upper),
-            )
-        ]
-        lower_fr, upper_fr = bounds[0] + bounds[1], bounds[2] + bounds[3]
+
+        def checked(name: str, bounds: Sequence[Any]) -> list[Fraction | None]:
+            return [_checked(name, k, v) for k, v in enumerate(bounds)]
+
+        lower_fr = checked("col_lower", col_lower) + checked("row_lower", row_lower)
+        upper_fr = checked("col_upper", col_upper) + checked("row_upper", row_upper)
         for v, (lo, hi) in enumerate(zip(lower_fr, upper_fr, strict=True)):
             if lo is not None and hi is not None and lo > hi:
                 name, k = ("col_lower", v) if v < self.n else ("row_lower", v - self.n)
@@ -468,9 +452,8 @@ class ExactProgram:
         loose = [v for v, s in enumerate(status) if s == "zero"] if "zero" in status else []
         for v in sorted({*self._unbounded, *loose}):
             s = status[v]
-            if (s == "lower" and self.lower[v] is None) or (s == "upper" and self.upper[v] is None):
-                status[v] = _column_status(self.lower[v], self.upper[v])
-            if s == "zero" and (self.lower[v] is not None or self.upper[v] is not None):
+            wrong = (s == "lower" and self.lower[v] is None) or (s == "upper" and self.upper[v] is None)
+            if wrong or (s == "zero" and (self.lower[v] is not None or self.upper[v] is not None)):
                 status[v] = _column_status(self.lower[v], self.upper[v])
         return status
 
@@ -534,7 +517,8 @@ def _highs_statuses() -> dict[Status, Any]:
 
 
 def _fraction_of(v: Any) -> Fraction:
-    return v if isinstance(v, Fraction) else Fraction(v) if isinstance(v, int) else _fraction(v)
+    """An exact number (Fraction, int or python-flint's fmpq) as a Fraction."""
+    return v if isinstance(v, Fraction) else Fraction(v) if isinstance(v, int) else Fraction(int(v.p), int(v.q))
 
 
 def _finite(name: str, index: Any, v: Any) -> Fraction:

@@ -149,10 +149,9 @@ def _write_through(
 def _keep_owner(tmp: str, info: os.stat_result) -> None:
     """Give ``tmp`` the owner and group of the file it replaces, where the process may (best effort)."""
     mine = os.stat(tmp)
-    if (mine.st_uid, mine.st_gid) == (info.st_uid, info.st_gid):
-        return
-    with suppress(OSError):  # not ours to give: the file is then the writer's, as any new file
-        os.chown(tmp, info.st_uid, info.st_gid)
+    if (mine.st_uid, mine.st_gid) != (info.st_uid, info.st_gid):
+        with suppress(OSError):  # not ours to give: the file is then the writer's, as any new file
+            os.chown(tmp, info.st_uid, info.st_gid)
 
 
 def _cannot_write(field: str, path: str | os.PathLike[str], exc: OSError) -> InputError:
@@ -170,12 +169,10 @@ def _remove_stale_temporaries(folder: Path, target: Path) -> None:
     pattern = re.compile(re.escape(f".{target.name}.") + r"[a-z0-9_]{8}" + re.escape(".tmp" + target.suffix))
     now = time.time()
     try:
-        entries = list(os.scandir(folder))
+        leftovers = [entry for entry in os.scandir(folder) if pattern.fullmatch(entry.name)]
     except OSError:
         return
-    for entry in entries:
-        if not pattern.fullmatch(entry.name):
-            continue
+    for entry in leftovers:
         with suppress(OSError):  # gone already, or not ours to remove
             info = entry.stat(follow_symlinks=False)
             if stat.S_ISREG(info.st_mode) and now - info.st_mtime > STALE_SECONDS:

@@ -55,8 +55,6 @@ def label(v: Hashable | None) -> Hashable | None:
     >>> label(("f", "over 40")), label(np.int64(2)), label(None)
     ('f & over 40', 2, None)
     """
-    if v is None:
-        return None
     if isinstance(v, tuple):
         return format_label(v)
     if isinstance(v, np.generic):

@@ -16,6 +16,7 @@ Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs: ``proofs/linear
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -259,7 +260,7 @@ class FractionalProgram:
         lam = Fraction(below) if math.isfinite(below) else None
         if lam is not None:  # HiGHS's own duals may prove ``below`` at once, before anything exact
             basis, duals = self._program.solver_duals(below * q - p)
-            early = None if duals is None else self._bounded_by_duals(result, lam, None, duals, None, [], [], 1)
+            early = self._bounded_by_duals(result, lam, None, duals, None, [], [], 1)
             if early is not None:
                 return replace(early, basis=tuple(basis))
         top, bottom = [Fraction(v) for v in p.tolist()], [Fraction(v) for v in q.tolist()]
@@ -271,17 +272,13 @@ class FractionalProgram:
             found = self._program.minimize(negated, pivot=False)
             steps += 1
             if found.status == "unproved":  # HiGHS's basis is not optimal exactly: its duals may bound the ratio
-                early = (
-                    None
-                    if lam is None
-                    else self._bounded_by_duals(result, lam, at, found.duals, found.point, top, bottom, steps)
-                )
+                early = self._bounded_by_duals(result, lam, at, found.duals, found.point, top, bottom, steps)
                 if early is not None:
                     return replace(early, basis=found.basis)
                 if found.point is not None:  # its vertex, feasible exactly, moves λ up where it beats it
                     num, den = dot(top, found.point), dot(bottom, found.point)
                     if den > 0 and (lam is None or num > lam * den):
-                        lam, at = num / den, np.array([float(v) for v in found.point])
+                        lam, at = num / den, np.array(found.point, dtype=float)
                         continue
                 found = self._program.minimize(negated, found.basis)  # exact pivots from that basis
                 pivots += found.pivots
@@ -291,7 +288,7 @@ class FractionalProgram:
                 return result(value=math.nan, argmax=None, status="infeasible", solver_status=status, reason=why)
             h = found.point
             num, den = dot(top, h), dot(bottom, h)
-            point = np.array([float(v) for v in h])
+            point = np.array(h, dtype=float)
             if lam is not None and -found.value <= 0:  # max (p − λq)·h ≤ 0: the ratio is at most λ
                 if at is not None:  # λ is the ratio at a vertex, which attains it
                     num, den, point = lam, Fraction(1), at
@@ -312,7 +309,7 @@ class FractionalProgram:
                     return result(value=1.0, argmax=point, status="optimal", solver_status=status, reason=why,
                                   certified=True, witness=witness, gap=gap_between(1.0, witness))  # fmt: skip
                 num, den = dot(top, found.point), dot(bottom, found.point)
-                point = np.array([float(v) for v in found.point])
+                point = np.array(found.point, dtype=float)
             lam, at = num / den, point if den > 0 else None
 
     def vertex_ratio(
@@ -346,7 +343,7 @@ class FractionalProgram:
     def _bounded_by_duals(
         self,
         result: Callable[..., FractionalResult],
-        lam: Fraction,
+        lam: Fraction | None,
         at: FloatArray | None,
         duals: Sequence[Any] | npt.NDArray[np.float64] | None,
         vertex: Sequence[Fraction] | None,
@@ -358,7 +355,9 @@ class FractionalProgram:
         is not optimal exactly), read to nearest, prove by weak duality
         (:func:`~fairaudit.base.exact_duality.certify_ratio`) a bound within :data:`CROSSOVER_TOLERANCE` of λ: that
         bound, with λ (the ratio at ``at``) or the ratio at the basis's feasible vertex (``vertex``, exact) as the
-        witness; else None (``proofs/exact_lp.md`` §4, "A bound from the duals")."""
+        witness; else None, as without λ or duals (``proofs/exact_lp.md`` §4, "A bound from the duals")."""
+        if lam is None or duals is None:
+            return None
         dual = self._multipliers(duals)
         bound = self._near_bound(lam, dual)
         if bound is None:
@@ -367,7 +366,7 @@ class FractionalProgram:
         if at is not None:
             witness = fraction_down(lam)
         elif vertex is not None and (den := dot(bottom, vertex)) > 0:
-            witness, point = fraction_down(dot(top, vertex) / den), np.array([float(v) for v in vertex])
+            witness, point = fraction_down(dot(top, vertex) / den), np.array(vertex, dtype=float)
         status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps; the last bounded by its duals)"
         return result(value=bound, argmax=point, status="optimal", solver_status=status, reason="",
                       certified=True, witness=witness, gap=gap_between(bound, witness), dual=dual)  # fmt: skip
@@ -408,16 +407,13 @@ class FractionalProgram:
 
     def _multipliers(self, duals: Sequence[Any] | npt.NDArray[np.float64] | None) -> tuple[FloatArray, ...]:
         """The exact row duals of the last step as (ν on A_ub, η on A_eq), to nearest; ν = −y ≥ 0."""
-        return tuple(np.array([float(v) for v in block], dtype=float) for block in self._blocks(duals))
+        return tuple(np.array(block, dtype=float) for block in self._blocks(duals))
 
     def _blocks(self, duals: Sequence[Any] | npt.NDArray[np.float64] | None) -> tuple[tuple[Any, ...], ...]:
         """The exact row duals of the last step as (ν on A_ub, η on A_eq), exactly; ν = −y ≥ 0."""
         assert duals is not None
-        out, start = [], 0
-        for a, _, _ in self._rows:
-            out.append(tuple(-v for v in duals[start : start + a.shape[0]]))
-            start += a.shape[0]
-        return tuple(out)
+        ends = list(itertools.accumulate(a.shape[0] for a, _, _ in self._rows))
+        return tuple(tuple(-v for v in duals[start:end]) for start, end in zip([0, *ends], ends))
 
 
 def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:

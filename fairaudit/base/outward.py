@@ -269,11 +269,6 @@ def sum_ends(rows: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     return high.reshape(a.shape[:-1]), low.reshape(a.shape[:-1])
 
 
-def _fraction(x: Exact) -> Fraction:
-    """``x`` as an exact rational (a float exactly, never through its decimal string)."""
-    return x if isinstance(x, Fraction) else Fraction(x)
-
-
 def fraction_up(x: Exact) -> float:
     """The smallest float ≥ the rational ``x`` (+inf beyond the largest float).
 
@@ -282,7 +277,7 @@ def fraction_up(x: Exact) -> float:
     >>> fraction_up(Fraction(1, 3)) > 1 / 3, fraction_up(Fraction(1, 2))
     (True, 0.5)
     """
-    q = _fraction(x)
+    q = Fraction(x)
     try:
         f = float(q)  # correctly rounded to nearest (Fraction.__float__ divides integers exactly)
     except OverflowError:
@@ -301,7 +296,7 @@ def fraction_down(x: Exact) -> float:
     >>> fraction_down(third) <= third < fraction_up(third), fraction_down(Fraction(-1, 2))
     (True, -0.5)
     """
-    return -fraction_up(-_fraction(x))
+    return -fraction_up(-Fraction(x))
 
 
 _EXP_FAR = 1000
@@ -401,27 +396,24 @@ def _ends(q: Fraction, ln: bool) -> tuple[Fraction, Fraction]:
     return _rational(lower, offset), _rational(upper, offset)
 
 
-def _float_end(q: Fraction, ln: bool, upward: bool) -> float:
-    """ln q or e^q (:func:`_ball_ends`'s arguments) rounded to a float on the stated side: an end of the ball, rounded
-    outward by :func:`fraction_up` or :func:`fraction_down`."""
-    lower, upper, offset = _ball_ends(q, ln)
-    return fraction_up(_rational(upper, offset)) if upward else fraction_down(_rational(lower, offset))
+def _outward(ends: tuple[Fraction, Fraction], upward: bool) -> float:
+    """The upper end of ``ends`` rounded up (:func:`fraction_up`), or the lower end rounded down (``upward`` False):
+    a float on the stated side of the value they enclose."""
+    return fraction_up(ends[1]) if upward else fraction_down(ends[0])
 
 
 def _ln(x: Exact, upward: bool) -> float:
     """ln ``x`` rounded to a float on the stated side (:func:`log_up` and :func:`log_down`)."""
-    if isinstance(x, float) and (math.isnan(x) or x == math.inf):
-        if math.isnan(x):
-            raise ValueError(f"ln of NaN: {x!r}")
+    if isinstance(x, float) and math.isnan(x):
+        raise ValueError(f"ln of NaN: {x!r}")
+    if x == math.inf:
         return math.inf
-    q = _fraction(x)
+    q = Fraction(x)
     if q < 0:
         raise ValueError(f"ln of a negative number: {x!r}")
     if q == 0:
         return -math.inf
-    if q == 1:
-        return 0.0
-    return _float_end(q, True, upward)
+    return _outward(ln_bounds(q), upward)
 
 
 def _exp(x: Exact, upward: bool) -> float:
@@ -430,14 +422,12 @@ def _exp(x: Exact, upward: bool) -> float:
         if math.isnan(x):
             raise ValueError(f"exp of NaN: {x!r}")
         return math.inf if x > 0 else 0.0
-    q = _fraction(x)
-    if q == 0:
-        return 1.0
+    q = Fraction(x)
     if abs(q) > _EXP_FAR:  # beyond the floats either way: no ball needed
         if upward:
             return math.inf if q > 0 else _TINY
         return sys.float_info.max if q > 0 else 0.0
-    return _float_end(q, False, upward)
+    return _outward(exp_bounds(q), upward)
 
 
 def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
@@ -471,7 +461,7 @@ def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
     """
     if isinstance(x, float) and not math.isfinite(x):
         raise ValueError(f"ln_bounds of {x!r}")
-    q = _fraction(x)
+    q = Fraction(x)
     if q <= 0:
         raise ValueError(f"ln_bounds of a number <= 0: {x!r}")
     if q == 1:
@@ -513,7 +503,7 @@ def exp_bounds(x: Exact) -> tuple[Fraction, Fraction]:
     """
     if isinstance(x, float) and not math.isfinite(x):
         raise ValueError(f"exp_bounds of {x!r}")
-    q = _fraction(x)
+    q = Fraction(x)
     if abs(q) > 10**6:
         raise ValueError(f"exp_bounds of a number beyond 1e6 in size: {x!r}")
     if q == 0:

@@ -43,12 +43,14 @@ class PairPass:
         self._lam = math.nan
         self._scaled = matrix
 
-    def tiles(self) -> Iterator[tuple[slice, slice]]:
-        """(rows a, rows b) covering the n × n ordered pairs, row-major by tile."""
+    def tiles(self, rows: slice | None = None) -> Iterator[tuple[slice, slice]]:
+        """(rows a, rows b) covering the ordered pairs with a in ``rows`` (default all n) and any b, row-major by
+        tile."""
         n = self.matrix.shape[0]
-        for a0 in range(0, n, self.rows):
+        start, stop = (0, n) if rows is None else (rows.start, rows.stop)
+        for a0 in range(start, stop, self.rows):
             for b0 in range(0, n, self.cols):
-                yield slice(a0, min(n, a0 + self.rows)), slice(b0, min(n, b0 + self.cols))
+                yield slice(a0, min(stop, a0 + self.rows)), slice(b0, min(n, b0 + self.cols))
 
     def sums_at(self, rows: slice, cols: slice, lam: float) -> FloatArray:
         """Σ_u max(M[a, u], λ M[b, u]) for a in ``rows``, b in ``cols``: shape (len(rows), len(cols))."""
@@ -75,17 +77,13 @@ class PairPass:
         """
         n = self.matrix.shape[0]
         band = max(self.rows, min(n, PAIR_BLOCK // (8 * n)) // self.rows * self.rows)
-        everything = slice(0, n)
         for a0 in range(0, n, band):
             at = lam()
             rows = slice(a0, min(n, a0 + band))
             sums = np.empty((rows.stop - a0, n))
-            for r0 in range(a0, rows.stop, self.rows):
-                sub = slice(r0, min(rows.stop, r0 + self.rows))
-                for c0 in range(0, n, self.cols):
-                    cols = slice(c0, min(n, c0 + self.cols))
-                    sums[r0 - a0 : sub.stop - a0, cols] = self.sums_at(sub, cols, at)
-            visit(rows, everything, sums, at)
+            for sub, cols in self.tiles(rows):
+                sums[sub.start - a0 : sub.stop - a0, cols] = self.sums_at(sub, cols, at)
+            visit(rows, slice(0, n), sums, at)
 
 
 _CANDIDATES_CACHE: dict[tuple, tuple[IntArray, IntArray]] = {}

@@ -126,14 +126,6 @@ def progress_bar(
         from tqdm import tqdm
     except ImportError:
         return _NoBar()
-    bar: ProgressBar = tqdm(
-        total=total,
-        desc=desc,
-        unit=unit,
-        disable=None,
-        leave=False,
-        delay=delay,
-        miniters=1,
-        bar_format=bar_format,
+    return tqdm(
+        total=total, desc=desc, unit=unit, disable=None, leave=False, delay=delay, miniters=1, bar_format=bar_format
     )
-    return bar

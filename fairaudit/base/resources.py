@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import os
 import re
+from contextlib import suppress
 from dataclasses import dataclass
+from fractions import Fraction
 
 from fairaudit.base.errors import InputError, MemoryLimitError
 
@@ -88,12 +90,7 @@ def parse_size(text: str | int, field: str = "max_memory") -> int:
     number, unit, suffix = match["number"], match["unit"].upper(), match["suffix"]
     if not unit and (suffix.lower().startswith("i") or "." in number):
         raise InputError(field, problem, text)
-    if "." in number:
-        whole, _, fraction = number.partition(".")
-        scale = 1024 ** _UNITS[unit]
-        nbytes = int(whole or "0") * scale + int(fraction or "0") * scale // 10 ** len(fraction or "")
-    else:
-        nbytes = int(number) * 1024 ** _UNITS[unit]
+    nbytes = int(Fraction(number) * 1024 ** _UNITS[unit])  # (exact, rounded down)
     if nbytes < 1:
         raise InputError(field, "must be at least one byte", text)
     return nbytes
@@ -119,24 +116,13 @@ def human_size(nbytes: float) -> str:
 
 def available_memory() -> int | None:
     """Bytes of memory available now (see the module's order), or None when nothing can be read."""
-    found: int | None = None
-    try:
-        with open("/proc/meminfo", encoding="ascii") as info:
-            for line in info:
-                if line.startswith("MemAvailable:"):
-                    found = int(line.split()[1]) * 1024
-                    break
-    except (OSError, ValueError, IndexError):
-        found = None
+    found = _proc_bytes("/proc/meminfo", "MemAvailable")
     for pages in ("SC_AVPHYS_PAGES", "SC_PHYS_PAGES"):
-        if found is not None:
-            break
-        try:
-            found = os.sysconf(pages) * os.sysconf("SC_PAGE_SIZE")
-        except (OSError, ValueError, AttributeError):
-            found = None
-        if found is not None and found <= 0:
-            found = None
+        if found is None:
+            with suppress(OSError, ValueError, AttributeError):
+                found = os.sysconf(pages) * os.sysconf("SC_PAGE_SIZE")
+            if found is not None and found <= 0:
+                found = None
     space = _address_space_left()
     if space is not None:
         found = space if found is None else min(found, space)
@@ -149,15 +135,20 @@ def _address_space_left() -> int | None:
         import resource
 
         soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-        if soft == resource.RLIM_INFINITY or soft < 0:
-            return None
-        used = 0
-        with open("/proc/self/status", encoding="ascii") as status:
-            for line in status:
-                if line.startswith("VmSize:"):
-                    used = int(line.split()[1]) * 1024
-        return max(soft - used, 0)
-    except (ImportError, OSError, ValueError, IndexError):
+    except (ImportError, OSError, ValueError):
+        return None
+    used = _proc_bytes("/proc/self/status", "VmSize")
+    if soft == resource.RLIM_INFINITY or soft < 0 or used is None:
+        return None
+    return max(soft - used, 0)
+
+
+def _proc_bytes(path: str, key: str) -> int | None:
+    """The bytes of the line ``key: N kB`` of a file of /proc, or None where it cannot be read."""
+    try:
+        with open(path, encoding="ascii") as lines:
+            return next((int(line.split()[1]) * 1024 for line in lines if line.startswith(f"{key}:")), None)
+    except (OSError, ValueError, IndexError):
         return None
 
 

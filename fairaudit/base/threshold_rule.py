@@ -61,11 +61,7 @@ def _broadcast(
     p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """(p, q, lower, upper) as float arrays broadcast to one shape (..., n)."""
-    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
-    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
-    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
-    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
-    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
+    p, q, lo, hi = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (p, q, lower, upper)))
     return p, q, lo, hi
 
 
@@ -267,10 +263,7 @@ def floor_max_many(
     low = (up(d_star * up(1.0 + g)) < floor) & ~np.all(p == q, axis=-1)  # (p = q: every ratio is exactly 1)
     need = floor - d0
     j = np.clip((cq >= need[..., None] - 1e-15 * floor).argmax(-1) - 1, 0, shape[-1] - 1)
-    qj = np.take_along_axis(qs, j[..., None], -1)[..., 0]
-    pj = np.take_along_axis(ps, j[..., None], -1)[..., 0]
-    cqj = np.take_along_axis(cq, j[..., None], -1)[..., 0]
-    cpj = np.take_along_axis(cp, j[..., None], -1)[..., 0]
+    qj, pj, cqj, cpj = (np.take_along_axis(v, j[..., None], -1)[..., 0] for v in (qs, ps, cq, cp))
     with np.errstate(divide="ignore", invalid="ignore"):
         frac = np.clip(np.where(qj > 0, (need - cqj) / np.where(qj > 0, qj, 1.0), 0.0), 0.0, 1.0)
     # the relative error bound of the knapsack value at the floor (proofs/linear_fractional.md §7)
@@ -307,12 +300,10 @@ def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: in
     >>> box_point(0.0, 1.0, np.array([1, 0, 2]), 1, 0.25).tolist()    # cell 1 up, cell 0 a quarter up
     [0.25, 1.0, 0.0]
     """
-    n = order.shape[-1]
-    lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,)).copy()
-    hi = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    lo, hi = (np.broadcast_to(np.asarray(v, dtype=float), order.shape) for v in (lower, upper))
     h = lo.copy()
     h[order[:k]] = hi[order[:k]]
-    if frac > 0 and k < n:
+    if frac > 0 and k < len(order):
         o = order[k]
         h[o] = lo[o] + frac * (hi[o] - lo[o])
     return h

@@ -114,19 +114,17 @@ def value_kind(value: object) -> str:
     Integers and floats are both "a number"; a date-time with an offset and one without are different kinds (the
     two cannot be ordered against each other).
     """
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, (int, float)):
-        return "a number"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, dict):
-        return "an inline table"
-    if isinstance(value, list):
-        return "a list"
     if isinstance(value, datetime):
         return "a local date-time" if value.tzinfo is None else "an offset date-time"
-    return f"a {type(value).__name__}"  # (TOML's local date and local time: "a date", "a time")
+    kinds = (
+        (bool, "a boolean"),
+        ((int, float), "a number"),
+        (str, "a string"),
+        (dict, "an inline table"),
+        (list, "a list"),
+    )
+    # (TOML's local date and local time: "a date", "a time")
+    return next((kind for types, kind in kinds if isinstance(value, types)), f"a {type(value).__name__}")
 
 
 def toml_label(value: object, where: str, depth: int = 0) -> Hashable:
@@ -252,10 +250,9 @@ def validation_error(err: ValidationError, source: str, *, whole: str) -> InputE
         big = isinstance(value, int) and not isinstance(value, bool)
         problem = "is too large for a number" if big else f"must be a number, not {value_kind(value)}"
         return InputError(f"{source}: {loc}", problem, value)
-    if first["type"] == "missing":
-        return InputError(f"{source}: {loc}", "is required")
-    if first["type"] == "extra_forbidden":
-        return InputError(f"{source}: {loc}", "is not a known field")
+    fixed = {"missing": "is required", "extra_forbidden": "is not a known field"}.get(first["type"])
+    if fixed is not None:
+        return InputError(f"{source}: {loc}", fixed)
     if isinstance(value, dict):
         return InputError(f"{source}: {loc}", msg)
     return InputError(f"{source}: {loc}", msg, value)

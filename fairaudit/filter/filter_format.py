@@ -8,6 +8,7 @@ decimal strings, labels as they are with tuples as lists.
 from __future__ import annotations
 
 from collections.abc import Hashable, Mapping, Sequence
+from contextlib import suppress
 from typing import Any
 
 import numpy as np
@@ -80,12 +81,10 @@ def parameters_filter(cls: Any, data: Mapping[str, Any], where: str) -> Any:
 
 def _whole(value: Any, field: str) -> int:
     """An integer written as a decimal string (or a JSON integer)."""
-    if isinstance(value, bool) or not isinstance(value, (str, int)):
-        raise InputError(field, "must be a whole number written as a decimal string", value)
-    try:
-        return int(value)
-    except ValueError:
-        raise InputError(field, "must be a whole number written as a decimal string", value) from None
+    with suppress(ValueError):  # (text that is not a whole number)
+        if isinstance(value, (str, int)) and not isinstance(value, bool):
+            return int(value)
+    raise InputError(field, "must be a whole number written as a decimal string", value)
 
 
 def json_labels(labels: Sequence[Hashable]) -> list[Any]:

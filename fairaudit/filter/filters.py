@@ -38,7 +38,7 @@ from fairaudit.base.labels import as_labels, is_hashable
 from fairaudit.base.outward import exp_down, fraction_up, log_up
 from fairaudit.filter.exact_sampling import RandomBytes, below, pick, uniform_below, words
 from fairaudit.filter.filter_format import FORMAT, FORMAT_VERSION, KINDS, json_labels, parameters_filter
-from fairaudit.filter.rationals import Rows, as_rows, exact_number, reduced
+from fairaudit.filter.rationals import Rows, as_rows, exact_number
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
 
@@ -194,20 +194,21 @@ class PrivacyFilter:
             raise InputError(
                 "randomized_response", "give exactly one of `epsilon` and `keep`", {"epsilon": epsilon, "keep": keep}
             )
+        eps: float | None = None  # (the ε asked for, when made from ε)
+        keep_n, move_n = 1, 0  # keep / move = t, the ratio of the rows; 1 / 0: the identity (one value, p = 1, ε = inf)
         if keep is not None:
             p = exact_number(keep, "keep")
             if not (Fraction(1, k) <= p <= 1):
                 raise InputError("keep", f"must be a keep probability in [1/k, 1] = [1/{k}, 1]", keep)
-            (keep_n, move_n), d = _rr_numerators(p, k)
-            return cls("randomized_response", labels, labels, d, keep=keep_n, move=move_n, name=name)
-        eps = check_epsilon(epsilon)
-        if k == 1 or math.isinf(eps):
-            return cls("randomized_response", labels, labels, 1, keep=1, move=0, name=name,
-                       rounding=_ROUNDED if k > 1 else "exact", requested_epsilon=eps)  # fmt: skip
-        t = max(Fraction(exp_down(eps)), Fraction(1))  # e^ε ≥ 1: exp_down of a tiny ε may be just below 1
-        d = t.numerator + (k - 1) * t.denominator
-        return cls("randomized_response", labels, labels, d, keep=t.numerator, move=t.denominator, name=name,
-                   rounding=_ROUNDED, requested_epsilon=eps)  # fmt: skip
+            if k > 1 and p < 1:  # p = t / (t + k − 1)
+                keep_n, move_n = (p * (k - 1) / (1 - p)).as_integer_ratio()
+        else:
+            eps = check_epsilon(epsilon)
+            if k > 1 and not math.isinf(eps):  # e^ε ≥ 1: exp_down of a tiny ε may be just below 1
+                keep_n, move_n = max(Fraction(exp_down(eps)), Fraction(1)).as_integer_ratio()
+        rounding = _ROUNDED if eps is not None and k > 1 else "exact"
+        return cls("randomized_response", labels, labels, keep_n + (k - 1) * move_n, keep=keep_n, move=move_n,
+                   rounding=rounding, requested_epsilon=eps, name=name)  # fmt: skip
 
     @classmethod
     def from_matrix(
@@ -374,15 +375,11 @@ class PrivacyFilter:
             if t is None:
                 return 1.0 if self.move == 0 else 0.0
             return fraction_up(max(Fraction(0), (self.keep - t * self.move) / self.denominator))
-        rows = self.numerator_rows()
-        best = Fraction(0)
-        for a, a2 in itertools.permutations(range(len(rows)), 2):
-            p, q = rows[a], rows[a2]
-            if t is None:
-                total = Fraction(sum(x for x, y in zip(p, q) if y == 0))
-            else:
-                total = sum((x - t * y for x, y in zip(p, q) if x > t * y), Fraction(0))
-            best = max(best, total)
+        pairs = itertools.permutations(self.numerator_rows(), 2)  # (two inputs at least: never empty)
+        if t is None:
+            best = Fraction(max(sum(x for x, y in zip(p, q) if y == 0) for p, q in pairs))
+        else:
+            best = max(sum((x - t * y for x, y in zip(p, q) if x > t * y), Fraction(0)) for p, q in pairs)
         return fraction_up(best / self.denominator)
 
     def numerator_rows(self) -> Rows:
@@ -450,9 +447,9 @@ class PrivacyFilter:
             return list(self._output_array[released])
         n_parts = len(self.components)
         items = list(values)
-        if any(not isinstance(v, (tuple, list)) or len(v) != n_parts for v in items):
-            bad = next(v for v in items if not isinstance(v, (tuple, list)) or len(v) != n_parts)
-            raise InputError("values", f"must be tuples of {n_parts} values, one per component", bad)
+        bad = [v for v in items if not isinstance(v, (tuple, list)) or len(v) != n_parts]
+        if bad:
+            raise InputError("values", f"must be tuples of {n_parts} values, one per component", bad[0])
         columns = list(zip(*items)) if items else [() for _ in self.components]
         released_columns = []
         for j, (component, column) in enumerate(zip(self.components, columns)):
@@ -574,14 +571,6 @@ class PrivacyFilter:
         return parameters_filter(cls, data, "")
 
 
-def _rr_numerators(p: Fraction, k: int) -> tuple[tuple[int, int], int]:
-    """(keep, move) numerators and their denominator of randomized response keeping with p (reduced)."""
-    if k == 1:
-        return (1, 0), 1
-    ((keep, move),), d = reduced(((p.numerator * (k - 1), p.denominator - p.numerator),), p.denominator * (k - 1))
-    return (keep, move), d
-
-
 def _ratio(f: PrivacyFilter) -> Fraction | float:
     """e^ε of a filter, exactly (+inf as a float)."""
     if len(f.inputs) < 2:
@@ -591,12 +580,7 @@ def _ratio(f: PrivacyFilter) -> Fraction | float:
     if f.kind == "product":
         parts = [c.ratio for c in f.components]
         return math.inf if any(isinstance(r, float) for r in parts) else math.prod(parts, start=Fraction(1))
-    best = Fraction(1)
-    for column in zip(*f.rows):
-        top, low = max(column), min(column)
-        if top == 0:
-            continue
-        if low == 0:
-            return math.inf
-        best = max(best, Fraction(top, low))
-    return best
+    extremes = [(max(column), min(column)) for column in zip(*f.rows) if any(column)]  # (all-zero columns: no ratio)
+    if any(low == 0 for _, low in extremes):
+        return math.inf
+    return max((Fraction(top, low) for top, low in extremes), default=Fraction(1))

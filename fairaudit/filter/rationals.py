@@ -26,6 +26,8 @@ __all__ = [
 Rows = tuple[tuple[int, ...], ...]
 """Rows of integer numerators (one tuple per input row)."""
 
+_FLOAT_HINT = " (floats count as their exact binary values: give fractions or strings such as '1/3' or '0.1')"
+
 
 def exact_number(value: object, field: str) -> Fraction:
     """``value`` as an exact rational.
@@ -97,12 +99,7 @@ def as_rows(rows: Sequence[Sequence[object]], field: str) -> tuple[Rows, int]:
             raise InputError(f"{field}[{i}]", "has a negative probability", str(negative[0]))
         total = sum(row, Fraction(0))
         if total != 1:
-            floats = any(isinstance(v, float) for v in rows[i])
-            hint = (
-                " (floats count as their exact binary values: give fractions or strings such as '1/3' or '0.1')"
-                if floats
-                else ""
-            )
+            hint = _FLOAT_HINT if any(isinstance(v, float) for v in rows[i]) else ""
             raise InputError(f"{field}[{i}]", f"must sum to exactly 1, not {total}{hint}", list(rows[i]))
     denominator = math.lcm(*(v.denominator for row in exact for v in row))
     numerators = tuple(tuple(v.numerator * (denominator // v.denominator) for v in row) for row in exact)

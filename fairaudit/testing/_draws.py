@@ -95,10 +95,7 @@ def weights(draw: st.DrawFn, shape: tuple[int, ...], allow_zeros: bool) -> Float
     """Integer weights of ``shape``; every row along the last axis has a positive sum."""
     w = integers(draw, shape, 0 if allow_zeros else 1, MAX_WEIGHT).astype(float)
     if w.size:
-        flat = w.reshape(-1, shape[-1])
-        dead = flat.sum(axis=1) == 0
-        flat[dead, 0] = 1.0
-        w = flat.reshape(shape)
+        w[..., 0] = np.where(w.sum(axis=-1) == 0, 1.0, w[..., 0])
     return w
 
 

@@ -60,9 +60,7 @@ def _pure_matrix(draw: st.DrawFn, n_in: int, n_out: int, epsilon: float, allow_z
             # so ε(M(s)) rises continuously from 0 to inf; it reaches ε at the smallest crossing
             # s = q_o (e^ε − 1) / (x − e^ε y) over triples with x > e^ε y.
             t = math.exp(epsilon)
-            x = r[:, None, :]
-            y = r[None, :, :]
-            gap = x - t * y
+            gap = r[:, None, :] - t * r[None, :, :]  # x − e^ε y for every pair of rows and output
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(gap > 0, q * (t - 1.0) / gap, np.inf)
             s_star = float(s.min())
@@ -297,9 +295,8 @@ def product_mechanisms(
     shares: list[float | None] = [None] * n  # each component's ε (None: arbitrary)
     if eps is not None:
         w = draws.weights(draw, (n,), allow_zeros=True)
-        split = [eps * float(wi) / float(w.sum()) for wi in w]
-        split[-1] = max(eps - sum(split[:-1]), 0.0)
-        shares = [*split]
+        split = [eps * float(wi) / float(w.sum()) for wi in w[:-1]]
+        shares = [*split, max(eps - sum(split), 0.0)]  # (the last share: ε less the others')
     components = []
     for i in range(n):
         values = draws.labels(draw, n_values, f"v{i}_", 2, "n_values")

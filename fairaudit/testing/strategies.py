@@ -141,8 +141,7 @@ def populations(
     # columns must keep positive mass among live contexts
     rows = np.flatnonzero(live)
     w[rows[0], w[rows].sum(axis=0) == 0] = 1.0
-    p = w / w.sum()
-    pop = Population(p, xs, gs)
+    pop = Population(w / w.sum(), xs, gs)
     if pop.independence().max_deviation < 1e-6:
         total = w.sum() + 1.0
         w[rows[0], 0] += total
@@ -203,9 +202,7 @@ def kernels(
     if deterministic is None:
         deterministic = draw(st.booleans())
     if deterministic:
-        choice = draws.integers(draw, shape[:2], 0, shape[2] - 1)
-        probs = np.zeros(shape)
-        np.put_along_axis(probs, choice[..., None], 1.0, axis=-1)
+        probs = np.eye(shape[2])[draws.integers(draw, shape[:2], 0, shape[2] - 1)]  # (one-hot rows)
     else:
         probs = draws.rows(draw, shape, allow_zeros)
     return Kernel(probs, xs, gs, us)
@@ -346,7 +343,7 @@ def utilities(
     us = draws.labels(draw, decisions, "u", 1, "decisions")
     full = depends_on_group or contexts is not None or groups is not None
     if not full:
-        return Utility(_vector_values(draw, len(us), gam, low), us, name="drawn utility")
+        return Utility(_group_free_values(draw, (1, 1, len(us)), gam, low)[0, 0], us, name="drawn utility")
     xs = draws.labels(draw, contexts if contexts is not None else 1, "x", 1, "contexts")
     gs = draws.labels(draw, groups if groups is not None else 2, "a", 2 if depends_on_group else 1, "groups")
     shape = (len(xs), len(gs), len(us))
@@ -355,26 +352,15 @@ def utilities(
     return Utility(_group_free_values(draw, shape, gam, low), us, xs, gs, name="drawn utility")
 
 
-def _vector_values(draw: st.DrawFn, nu: int, gam: float, low: float) -> FloatArray:
-    """g(u) over ``nu`` decisions in [low, γ], with one decision at γ and another at lower."""
-    if nu < 2 and gam != low:
-        raise InvalidArgument("a utility over one decision cannot have gamma != lower")
-    values = draws.between(draw, (nu,), low, gam)
-    hi, lo = draws.distinct_pair(draw, nu)
-    values[hi], values[lo] = gam, low
-    return values
-
-
 def _group_free_values(draw: st.DrawFn, shape: tuple[int, int, int], gam: float, low: float) -> FloatArray:
-    """g[x, a, u] = h[x, u] in [low, γ] (the same for every group), attaining γ and lower."""
+    """g[x, a, u] = h[x, u] in [low, γ] (the same for every group), attaining γ and lower: at two distinct (x, u)
+    (a vector g(u) is the table of one context and one group)."""
     nx, na, nu = shape
-    slots = [(x, u) for x in range(nx) for u in range(nu)]
-    if len(slots) < 2 and gam != low:
-        raise InvalidArgument("one (context, decision) pair cannot carry both gamma and lower")
+    if nx * nu < 2 and gam != low:
+        raise InvalidArgument("a utility with one (context, decision) pair cannot have gamma != lower")
     h = draws.between(draw, (nx, nu), low, gam)
-    top, bottom = draws.distinct_pair(draw, len(slots))
-    h[slots[top]] = gam
-    h[slots[bottom]] = low
+    top, bottom = draws.distinct_pair(draw, nx * nu)  # (flat indices of (x, u), row-major)
+    h.flat[top], h.flat[bottom] = gam, low
     return np.repeat(h[:, None, :], na, axis=1)
 
 
@@ -389,14 +375,12 @@ def _group_dependent_values(
     top_h = max(low, gam - L)
     if gam - top_h <= 0:
         raise InvalidArgument(f"lipschitz={L!r} is lost in the rounding of gamma={gam!r}")
-    slots = [(x, u) for x in range(nx) for u in range(nu)]
-    if len(slots) < 2 and L < gam - low:
+    if nx * nu < 2 and L < gam - low:
         raise InvalidArgument("with one (context, decision) pair the Lipschitz constant must be gamma - lower")
     h = draws.between(draw, (nx, nu), low, top_h)
     d = draws.between(draw, (nx, na, nu), 0.0, L)
-    top, bottom = draws.distinct_pair(draw, len(slots))
-    tx, tu = slots[top]
-    bx, bu = slots[bottom]
+    top, bottom = draws.distinct_pair(draw, nx * nu)
+    (tx, tu), (bx, bu) = divmod(top, nu), divmod(bottom, nu)
     h[bx, bu] = low
     d[bx, :, bu] = 0.0
     h[tx, tu] = top_h

@@ -9,6 +9,7 @@ floating-point operation decides a result here (``proofs/outward.md`` §4).
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from collections.abc import Iterator, Mapping, Sequence
@@ -394,7 +395,7 @@ class RecordedMechanism:
         """
         if self.kind == "randomized_response":
             # every pair is alike but for d(a, a'), and the bound increases in d: the pair at the largest distance
-            pairs = [(a, b) for a in range(self.k) for b in range(self.k) if a != b]
+            pairs = itertools.permutations(range(self.k), 2)
             a, b = (0, 1) if metric is None else max(pairs, key=lambda ab: Fraction(metric[ab[0]][ab[1]]))
             d = Fraction(1) if metric is None else Fraction(metric[a][b])
             c = lipschitz * d / tau
@@ -402,11 +403,8 @@ class RecordedMechanism:
             if t.hi == INF:  # the identity: δ = 1 at every ε, the minimum at t = 1
                 return ln(1 + c + gamma / tau), a, b
             # at t = 1: 1 + c + (γ/τ)(t − 1)/(t + k − 1), increasing in t
-            at_one = Enclosure(
-                1 + c + gamma / tau * (t.lo - 1) / (t.lo + m), 1 + c + gamma / tau * (t.hi - 1) / (t.hi + m)
-            )
-            at_eps = Enclosure(self.epsilon, self.epsilon) + Enclosure(ln(1 + c / t.hi).lo, ln(1 + c / t.lo).hi)  # type: ignore[arg-type]
-            one = Enclosure(ln(at_one.lo).lo, ln(at_one.hi).hi)
+            one = ln_of(Enclosure(*(1 + c + gamma / tau * (end - 1) / (end + m) for end in (t.lo, t.hi))))
+            at_eps = Enclosure.point(self.epsilon) + ln_of(Enclosure(1 + c / t.hi, 1 + c / t.lo))  # type: ignore[arg-type]
             return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), a, b
         rows = self.matrix_rows()
         assert rows is not None

@@ -10,6 +10,7 @@ it at the right end of each entry (``proofs/verification.md`` §2b).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -372,32 +373,26 @@ def _number(name: str, reported: Any, value: Enclosure | None, undefined: str = 
 
 def _group_plane(pop: list[Any], ends: list[Any]) -> _Plane:
     """Σ_x P(x, a) ``T[x][a][u]`` / P(a) per group, at both ends of T (P(u | a) for the law); None where P(A = a) = 0."""
-    plane: _Plane = []
-    for a in range(len(pop[0])):
-        m = sum(row[a] for row in pop)
-        if m == 0:
-            plane.append(None)
-            continue
-        n = len(ends[0][0][a])
-        rows = [
-            [sum(pop[x][a] * end[x][a][u] for x in range(len(pop)) if pop[x][a]) / m for u in range(n)] for end in ends
-        ]
-        plane.append(list(zip(*rows)))
-    return plane
+
+    def mean(end: list[Any], a: int, mass: Fraction) -> list[Fraction]:
+        weighted = [[p[a] * v for v in plane[a]] for p, plane in zip(pop, end) if p[a]]
+        return [sum(column) / mass for column in zip(*weighted)]
+
+    masses = [sum(column) for column in zip(*pop)]
+    return [list(zip(*(mean(end, a, m) for end in ends))) if m else None for a, m in enumerate(masses)]
 
 
 def _max_tv(planes: dict[Any, _Plane]) -> Enclosure:
     """The largest TV = Σ_u (P_a(u) − P_b(u))⁺ over the planes and their ordered pairs of rows, enclosed (each term
-    increases in P_a(u) and decreases in P_b(u))."""
-    lo = hi = Fraction(0)
-    for plane in planes.values():
-        rows = [r for r in plane if r is not None]
-        for i, ra in enumerate(rows):
-            for j, rb in enumerate(rows):
-                if i != j:
-                    lo = max(lo, sum((max(Fraction(0), a[0] - b[1]) for a, b in zip(ra, rb)), Fraction(0)))
-                    hi = max(hi, sum((max(Fraction(0), a[1] - b[0]) for a, b in zip(ra, rb)), Fraction(0)))
-    return Enclosure(lo, hi)
+    increases in P_a(u) and decreases in P_b(u): its low end from P_a's low ends and P_b's high ends)."""
+    pairs = [
+        pair for plane in planes.values() for pair in itertools.permutations([r for r in plane if r is not None], 2)
+    ]
+
+    def tv(ra: list[Any], rb: list[Any], end: int) -> Fraction:
+        return sum((max(Fraction(0), a[end] - b[1 - end]) for a, b in zip(ra, rb)), Fraction(0))
+
+    return Enclosure(*(max((tv(ra, rb, end) for ra, rb in pairs), default=Fraction(0)) for end in (0, 1)))
 
 
 def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], labels: tuple[list[Any], list[Any]],

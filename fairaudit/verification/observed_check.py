@@ -316,14 +316,12 @@ def max_ratio(planes: dict[Any, _Plane]) -> Enclosure:
     >>> max_ratio({"x": [[(F(1), F(2))], [(F(4), F(4))], None], "y": [[(F(1), F(1))]]})
     Enclosure(lo=Fraction(2, 1), hi=Fraction(4, 1))
     """
-    lo: Fraction | float = Fraction(1)
-    hi: Fraction | float = Fraction(1)
-    for plane in planes.values():
-        for column in zip(*(row for row in plane if row is not None)):
-            if len(column) >= 2:
-                lo = max(lo, ratio_of(max(e[0] for e in column), min(e[1] for e in column)))
-                hi = max(hi, ratio_of(max(e[1] for e in column), min(e[0] for e in column)))
-    return Enclosure(lo, hi)
+    columns = [c for plane in planes.values() for c in zip(*(row for row in plane if row is not None)) if len(c) >= 2]
+
+    def ratio(column: Sequence[Any], end: int) -> Fraction | float:  # the low (end 0) or the high (1) end
+        return ratio_of(max(e[end] for e in column), min(e[1 - end] for e in column))
+
+    return Enclosure(*(max([Fraction(1), *(ratio(c, end) for c in columns)]) for end in (0, 1)))
 
 
 def _identity(labels: list[Any]) -> RecordedMechanism:

@@ -225,13 +225,8 @@ def _arb_ends(q: Fraction, log: bool) -> Enclosure:
     if not ball.is_finite():
         raise ArithmeticError(f"{'ln' if log else 'exp'} of {q}: no finite ball")
     offset = int(near and not log)
-    return Enclosure(_dyadic(lower) + offset, _dyadic(upper) + offset)
-
-
-def _dyadic(a: Any) -> Fraction:
-    """An exact ``arb`` (a ball's end, m·2^e) as a rational."""
-    m, e = (int(v) for v in a.man_exp())
-    return Fraction(m << e) if e >= 0 else Fraction(m, 1 << -e)
+    ends = (end.fmpq() for end in (lower, upper))  # (a ball's ends are exact dyadic rationals: fmpq reads them)
+    return Enclosure(*(Fraction(int(q.p), int(q.q)) + offset for q in ends))
 
 
 def ln_of(e: Enclosure) -> Enclosure:
@@ -408,8 +403,7 @@ class RecordedMechanism:
             return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), a, b
         rows = self.matrix_rows()
         assert rows is not None
-        ints, den = integers([rows])
-        ints = ints[0]
+        (ints,), den = integers([rows])
         scale = gamma / tau
 
         def shift(a: int, b: int) -> Fraction:

@@ -258,10 +258,8 @@ def _theorem_checks(
 def _target_checks(cert: Mapping[str, Any]) -> list[Check]:
     """Each target's bound is the certificate's bound, and its verdicts follow from the numbers."""
     bounds, form = cert["bounds"], cert["bounds"]["best_form"]
-    if form == "none":
-        out = [equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf")]
-    else:
-        out = [equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}")]
+    expected, why = ("inf", "no form gives a bound: +inf") if form == "none" else (bounds[form], f"bounds.{form}")
+    out = [equal("bounds.best", bounds["best"], expected, why)]
     for kind, t in (cert.get("targets") or {}).items():
         expected = bounds["best"] if kind == "local" else bounds["global"]
         out.append(equal(f"targets.{kind}.bound", t["bound"], expected))
@@ -428,16 +426,15 @@ def _maximiser(
     identity, where a pair's ratio may be c/0). Where a recorded dual (or the relaxation) gives the pair's upper end, a
     pair whose upper end reaches the value but whose lower end (the recorded point's) does not is listed in
     ``skip``: its upper end does not show that it attains the value."""
-    named = (where.get("context"),) if local else ()
-    labels = " vs ".join(str(v) for v in (*named, where.get("group"), where.get("other_group")))
+    context, group, other = where.get("context") if local else None, where.get("group"), where.get("other_group")
+    labels = " vs ".join(str(v) for v in ((context,) if local else ()) + (group, other))
     value = exact(where["value"], name)
     if where.get("certified") is False:  # (an inexact solve's value: its pair need only reach its witness)
         if where.get("witness") is None:
             skip.append((name, "the value is not certified and no witness is recorded"))
             return []
         value = exact(where["witness"], name)
-    group, other = where.get("group"), where.get("other_group")
-    ratio, from_duals = pair_enclosure(inputs, recorded, group, other, where.get("context") if local else None)
+    ratio, from_duals = pair_enclosure(inputs, recorded, group, other, context)
     reach = None if ratio is None else below_epsilon(ratio, eps).hi
     if reach is None:
         ok = False

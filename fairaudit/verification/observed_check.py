@@ -404,20 +404,15 @@ def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], lab
     if no_pair:
         return equal(check, names[1:3], [None, None], "no pair of groups to compare")
     where = f"at {names[0]!r}: {names[1]!r} over {names[2]!r}, {'event' if tv else 'decision'} {picked!r}"
-    plane = planes.get(names[0])  # (the schema types each label, the event a list of them)
-    known = (plane is not None and names[1] in groups and names[2] in groups
+    plane = planes.get(names[0]) or []  # (the schema types each label, the event a list of them)
+    known = (names[1] in groups and names[2] in groups
              and len(set(map(str, picked))) == len(picked) and all(u in decisions for u in picked))  # fmt: skip
-    ra = rb = None
-    if known:
-        assert plane is not None
-        ra, rb = plane[groups.index(names[1])], plane[groups.index(names[2])]
+    ra, rb = (plane[groups.index(names[1])], plane[groups.index(names[2])]) if known and plane else (None, None)
     if ra is None or rb is None:
         return equal(check, names, "labels of the inputs", f"no such cell: {where}")
     cols = [decisions.index(u) for u in picked]
-    if tv:
-        lo = sum((ra[u][0] - rb[u][1] for u in cols), Fraction(0))
-        hi = sum((ra[u][1] - rb[u][0] for u in cols), Fraction(0))
-        return judge(check, detail["value"], Enclosure(lo, hi), "estimate", where)
-    u = cols[0]
-    ratio = Enclosure(ratio_of(ra[u][0], rb[u][1]), ratio_of(ra[u][1], rb[u][0]))
-    return judge(check, detail["value"], ln_of(ratio), "estimate", where)
+    if tv:  # P(event | group) − P(event | other_group), at its low (end 0) and its high (1) end
+        value = Enclosure(*(sum((ra[u][end] - rb[u][1 - end] for u in cols), Fraction(0)) for end in (0, 1)))
+    else:  # ln of P(decision | group) / P(decision | other_group)
+        value = ln_of(Enclosure(*(ratio_of(ra[cols[0]][end], rb[cols[0]][1 - end]) for end in (0, 1))))
+    return judge(check, detail["value"], value, "estimate", where)

@@ -197,15 +197,12 @@ def three_cell_settings(
         return {key[:-2] + (0, 1): by(v) if len(key) == 3 else [by(row) for row in v]
                 for key, v in found.items() if key[-2:] == pair}  # fmt: skip
 
-    e = evidence
-    theta = {key[:-2] + (0, 1): t for key, t in e.theta.items() if key[-2:] == pair}
-    ev = Evidence(moved(e.nu, cells), theta, moved(e.points, mean))
-    out = []
+    theta = {key[:-2] + (0, 1): t for key, t in evidence.theta.items() if key[-2:] == pair}
+    ev = Evidence(moved(evidence.nu, cells), theta, moved(evidence.points, mean))
+    reduced, w, out = [[row[0]] * n for row in g], [mean(row) for row in weights], []
     for p, q in sensitive.rr_ends():
         o = q * len(others)
         rows = ((p, q, o), (q, p, o), (q, q, p + q * (len(others) - 1))) if others else ((p, q), (q, p))
-        reduced = [[g[x][0]] * n for x in range(len(g))]
-        w = [mean(row) for row in weights]
         out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, ev, True))
     return out
 
@@ -310,8 +307,7 @@ def _largest(cases: Sequence[_Case], start: Number) -> Ends:
     thetas = [case.program.theta_bound(case.theta, case.kept) if case.theta is not None and case.kept else INF
               for case in cases]  # fmt: skip
     low = high = start
-    for i in sorted(range(len(cases)), key=lambda i: -thetas[i]):
-        case, bound = cases[i], thetas[i]
+    for bound, case in sorted(zip(thetas, cases), key=lambda theta_case: -theta_case[0]):
         if bound <= high and bound != INF:
             continue
         reached: Number = Fraction(0)  # (the largest ratio this program is shown to attain)

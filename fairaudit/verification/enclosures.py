@@ -312,10 +312,9 @@ class RecordedMechanism:
     def t(self) -> Enclosure:
         """Randomized response's e^ε, enclosed, never below 1 (ε ≥ 0: a lower end below 1 would be a randomized
         response with its roles swapped)."""
-        eps = self.epsilon
-        if eps == INF:
+        if self.epsilon == INF:
             return Enclosure.point(INF)
-        t = exp_of(eps)  # type: ignore[arg-type]
+        t = exp_of(self.epsilon)  # type: ignore[arg-type]
         return Enclosure(max(Fraction(1), t.lo), t.hi)
 
     def rr_ends(self) -> tuple[tuple[Fraction, Fraction], tuple[Fraction, Fraction]]:
@@ -347,14 +346,10 @@ class RecordedMechanism:
         if self.kind == "randomized_response":
             return Enclosure.point(self.epsilon if self.k >= 2 else Fraction(0))  # type: ignore[arg-type]
         assert self.rows is not None
-        ratio: Fraction | float = Fraction(1)
-        for column in zip(*self.rows):
-            top, bottom = max(column), min(column)
-            if top > 0 and bottom == 0:
-                return Enclosure.point(INF)
-            if top > 0:
-                ratio = max(ratio, top / bottom)
-        return ln(ratio)
+        reached = [(max(column), min(column)) for column in zip(*self.rows) if max(column) > 0]
+        if any(bottom == 0 for _, bottom in reached):
+            return Enclosure.point(INF)
+        return ln(max([Fraction(1), *(top / bottom for top, bottom in reached)]))
 
     def matrix_rows(self) -> tuple[tuple[Fraction, ...], ...] | None:
         """Exact rows: a matrix's, the identity's; None for randomized response (irrational)."""
@@ -366,15 +361,13 @@ class RecordedMechanism:
 
     def largest_delta(self, epsilon: Fraction) -> Enclosure:
         """δ(ε) = max over a ≠ a' of Σ_o [M[a, o] − e^ε M[a', o]]₊, enclosed (it decreases in e^ε)."""
-        if self.k < 2:
+        # (one group: no pair; randomized response at ε ≥ ε_M: p − e^ε q = (e^ε_M − e^ε)/(e^ε_M + k − 1) ≤ 0, exactly 0)
+        if self.k < 2 or (self.kind == "randomized_response" and epsilon >= self.epsilon):  # type: ignore[operator]
             return Enclosure.point(Fraction(0))
         t = exp_of(epsilon)
-        if self.kind == "randomized_response" and epsilon >= self.epsilon:  # type: ignore[operator]
-            return Enclosure.point(Fraction(0))  # (p − e^ε q = (e^ε_M − e^ε)/(e^ε_M + k − 1) ≤ 0: exactly 0)
         low = high = self.matrix_rows()
         if low is None:  # randomized response: the rows of a pair on its own two columns (elsewhere both q: no mass
-            (p, q), (p_hi, q_hi) = self.rr_ends()  # at e^ε ≥ 1), at each end of e^ε_M (δ increases in it)
-            low, high = ((p, q), (q, p)), ((p_hi, q_hi), (q_hi, p_hi))
+            low, high = (((p, q), (q, p)) for p, q in self.rr_ends())  # at e^ε ≥ 1), at each end of e^ε_M (δ rises)
         return Enclosure(_largest_hockey_stick(low, t.hi), _largest_hockey_stick(high, t.lo))  # type: ignore[arg-type]
 
     def tight_pair_log(

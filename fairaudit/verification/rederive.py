@@ -292,7 +292,7 @@ def _filter_check(m: RecordedMechanism, parameters: Mapping[str, Any]) -> Check:
             return verdict(False, f"the filter is a {kind}; the certificate's mechanism is randomized response")
         low, high = sorted((int(parameters["keep"]), int(parameters["move"])))
         ratio = Fraction(1) if len(inputs) < 2 else INF if low == 0 else Fraction(high, low)  # e^epsilon, exactly
-        t = Enclosure.point(INF) if m.epsilon == INF else exp_of(m.epsilon)  # type: ignore[arg-type]
+        t = m.t()  # (the schema's epsilon >= 0: e^epsilon's lower end is at least 1 unclamped too)
         if ratio <= t.lo:
             return verdict(True, "the filter's exact e^epsilon is at most the certificate's")
         why = "exceeds" if ratio > t.hi else "cannot be shown to be at most"

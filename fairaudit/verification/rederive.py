@@ -91,15 +91,10 @@ class Verification:
 
     def lines(self) -> list[str]:
         """The text report: one line per check, then what was not re-derived, then the verdict."""
-        out = [c.line() for c in self.checks]
-        out += [f"{n}: not re-derived ({r})" for n, r in self.not_checked]
-        n_fail = len(self.failures)
-        out.append(
-            f"{self.source}: all {len(self.checks)} checked numbers hold"
-            if n_fail == 0
-            else f"{self.source}: {n_fail} of {len(self.checks)} checked numbers fail"
-        )
-        return out
+        n_fail, n = len(self.failures), len(self.checks)
+        verdict = f"all {n} checked numbers hold" if n_fail == 0 else f"{n_fail} of {n} checked numbers fail"
+        skipped = [f"{name}: not re-derived ({reason})" for name, reason in self.not_checked]
+        return [c.line() for c in self.checks] + skipped + [f"{self.source}: {verdict}"]
 
 
 def verify(

@@ -384,13 +384,13 @@ def _witness_checks(
     return out
 
 
-def _global_from_best(bounds: Mapping[str, Any], probabilities: Any) -> Check:
+def _global_from_best(cert: Mapping[str, Any]) -> Check:
     """``bounds.global`` from L's best bound: L-bar <= L + ln F, F = max r / min r with r(x, a) = P(x, a)/(P(x) P(a))
     over P(x) > 0 and P(a) > 0 (1 when X and A are independent exactly; ``proofs/black_box.md`` §6). The bound
     holds whatever F; certify gives it for X and A independent to 1e-9 (:data:`~fairaudit.verification.enclosures.INDEPENDENCE`, its
     ``Population.independence`` rule evaluated in floats: within 2^-40 relative of it, either reading is accepted), and
     +inf beyond."""
-    deviation, spread = independence(probabilities)
+    bounds, (deviation, spread) = cert["bounds"], independence(cert["inputs"]["population"]["probabilities"])
     if spread == 1:
         return equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L")
     if spread == INF:
@@ -453,9 +453,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         skipped += [
             (n, "the certificate gives no black-box bound") for n in ("bounds.black_box", "bound_details.black_box")
         ]
-        if bounds.get("global") is None:
-            return []
-        return [_global_from_best(bounds, cert["inputs"]["population"]["probabilities"])]  # L-bar from L, or +inf
+        return [] if bounds.get("global") is None else [_global_from_best(cert)]  # L-bar from L, or +inf
     worst = black_box_enclosures(cert["inputs"], detail)
     if worst.local is None:
         skipped += [(n, worst.reason) for n in ("bounds.black_box", "bounds.global", "bound_details.black_box")]
@@ -489,5 +487,5 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)
             out.append(equal("bounds.global", bounds["global"], "inf", "no bound: +inf bounds every value"))
         else:  # L-bar <= L + ln F when X and A are independent (within rounding: F > 1): the best bound on L
-            out.append(_global_from_best(bounds, cert["inputs"]["population"]["probabilities"]))
+            out.append(_global_from_best(cert))
     return out

@@ -41,7 +41,7 @@ from fairaudit.verification.enclosures import (
 )
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import distribution_checks, recorded_checks
-from fairaudit.verification.schema import CertificateError
+from fairaudit.verification.schema import CertificateError, check_certificate
 from fairaudit.verification.verdict_check import verdict_checks
 
 __all__ = ["Verification", "canonical_digest", "verify"]
@@ -153,8 +153,6 @@ def verify(
     >>> cert["tolerance"], [c.name for c in verify(cert).failures]
     (1e-09, ['bound_details.tight.value', 'bounds.tight'])
     """
-    from fairaudit.verification.schema import check_certificate
-
     check_certificate(certificate)
     with stated_tolerance(certificate["tolerance"]):  # every number is judged to it, and only during this verify
         return _rederived(certificate, privacy_filter, source)

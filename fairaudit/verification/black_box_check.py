@@ -28,6 +28,7 @@ for every pair (:func:`three_cell_settings`; for L̄ when P(x | a) is the same f
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
@@ -97,6 +98,18 @@ class KernelSetting:
     @property
     def k(self) -> int:
         return len(self.sensitive)
+
+    def case(
+        self, key: tuple[int, ...], program: TableProgram, kept: Fraction | None, keys: Sequence[tuple[int, int]]
+    ) -> _Case:
+        """``program`` (of ``key``: (x, a, b) for L's, (a, b) for L̄'s; over the rows ``keys``) with what the
+        certificate records for it: the floors' ν (per context and group, flattened, but for L's program of one
+        context behind the identity), θ, and the table (:func:`_table`)."""
+        own = len(key) == 3 and self.context is None  # (L's program at one context behind the identity)
+        nu, point = self.evidence.nu.get(key), self.evidence.points.get(key)
+        flat = nu if nu is None or own else [nu[x][c] for x in self.live for c in range(self.k)]
+        table = None if point is None else _table(self, point, keys, own)
+        return _Case(program, flat, self.evidence.theta.get(key), kept, table)
 
 
 def kernel_settings(
@@ -197,15 +210,12 @@ def three_cell_settings(
         return {key[:-2] + (0, 1): by(v) if len(key) == 3 else [by(row) for row in v]
                 for key, v in found.items() if key[-2:] == pair}  # fmt: skip
 
-    e = evidence
-    theta = {key[:-2] + (0, 1): t for key, t in e.theta.items() if key[-2:] == pair}
-    ev = Evidence(moved(e.nu, cells), theta, moved(e.points, mean))
-    out = []
+    theta = {key[:-2] + (0, 1): t for key, t in evidence.theta.items() if key[-2:] == pair}
+    ev = Evidence(moved(evidence.nu, cells), theta, moved(evidence.points, mean))
+    reduced, w, out = [[row[0]] * n for row in g], [mean(row) for row in weights], []
     for p, q in sensitive.rr_ends():
         o = q * len(others)
         rows = ((p, q, o), (q, p, o), (q, q, p + q * (len(others) - 1))) if others else ((p, q), (q, p))
-        reduced = [[g[x][0]] * n for x in range(len(g))]
-        w = [mean(row) for row in weights]
         out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, ev, True))
     return out
 
@@ -310,8 +320,7 @@ def _largest(cases: Sequence[_Case], start: Number) -> Ends:
     thetas = [case.program.theta_bound(case.theta, case.kept) if case.theta is not None and case.kept else INF
               for case in cases]  # fmt: skip
     low = high = start
-    for i in sorted(range(len(cases)), key=lambda i: -thetas[i]):
-        case, bound = cases[i], thetas[i]
+    for bound, case in sorted(zip(thetas, cases), key=lambda theta_case: -theta_case[0]):
         if bound <= high and bound != INF:
             continue
         reached: Number = Fraction(0)  # (the largest ratio this program is shown to attain)
@@ -406,7 +415,6 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
         ends = [table_local(s, (i, 0, 1)) for i in (range(len(s.live)) if at is None else [at[0]])]
         return max(e[0] for e in ends), max(e[1] for e in ends), any(e[2] for e in ends)
     own = s.context is None  # (then a program per context)
-    evidence = s.evidence
     cases = []
     every = None if own else _per_context(s, reached_rows(s, s.live), s.live)  # (one polytope for every context)
     for i in range(len(s.live)) if at is None else [at[0]]:
@@ -415,13 +423,9 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
         forms, d = _per_context(s, keys, [x]) if every is None else every
         here = 0 if own else i
         floors = forms.reshape(-1, *forms.shape[2:])  # (every context's, and every group's)
-        pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
-        for a, b in pairs:
-            recorded, point = evidence.nu.get((x, a, b)), evidence.points.get((x, a, b))
-            nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
-            table = None if point is None else _table(s, point, keys, own)
+        for a, b in itertools.permutations(range(s.k), 2) if at is None else [at[1:]]:
             program = TableProgram(forms[here, a], forms[here, b], floors, d, s.tau)
-            cases.append(_Case(program, nu, evidence.theta.get((x, a, b)), s.tau, table))
+            cases.append(s.case((x, a, b), program, s.tau, keys))
     return _largest(cases, Fraction(0))
 
 
@@ -462,7 +466,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
         return Fraction(1), Fraction(1), False
     at = (0, 1) if s.cells else at  # (the pair (0, 1) of the three cells stands for every pair)
     keys = reached_rows(s, s.live)
-    pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
+    pairs = list(itertools.permutations(s.present, 2)) if at is None else [at]
     groups = sorted({a for pair in pairs for a in pair})
     per_context, d = _per_context(s, keys, s.live)
     (weights,), d_w = integers([s.weights])
@@ -470,15 +474,8 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
     # E[g | a] = Σ_x P(x | a) E[g | x, a]: the numerator where a is first, the denominator where second
     kept = {b: None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0)) for b in groups}
     floors = per_context.reshape(-1, *per_context.shape[2:]) * d_w
-    evidence = s.evidence
-    cases = []
-    for a, b in pairs:
-        recorded, point = evidence.nu.get((a, b)), evidence.points.get((a, b))
-        nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
-        table = None if point is None else _table(s, point, keys, False)
-        program = TableProgram(forms[a], forms[b], floors, d * d_w, s.tau)
-        cases.append(_Case(program, nu, evidence.theta.get((a, b)), kept[b], table))
-    return _largest(cases, Fraction(1))
+    programs = {(a, b): TableProgram(forms[a], forms[b], floors, d * d_w, s.tau) for a, b in pairs}
+    return _largest([s.case(pair, p, kept[pair[1]], keys) for pair, p in programs.items()], Fraction(1))
 
 
 @dataclass(frozen=True)

@@ -251,9 +251,7 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
         beyond = side not in ("lower", "at most") and (
             derived.lo > LARGEST or (side == "upper" and derived.hi > LARGEST)
         )
-        ok = value == INF and (
-            derived.lo == INF or side == "at least" or (side == "upper" and derived.hi == INF) or beyond
-        )
+        ok = value == INF and (derived.lo == INF or side == "at least" or beyond)
         by = 0.0 if ok else math.inf
     else:
         # the tolerance's ends, rounded outward to the floats: a recorded float cannot lie between two of them

@@ -9,6 +9,7 @@ floating-point operation decides a result here (``proofs/outward.md`` §4).
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from collections.abc import Iterator, Mapping, Sequence
@@ -224,13 +225,8 @@ def _arb_ends(q: Fraction, log: bool) -> Enclosure:
     if not ball.is_finite():
         raise ArithmeticError(f"{'ln' if log else 'exp'} of {q}: no finite ball")
     offset = int(near and not log)
-    return Enclosure(_dyadic(lower) + offset, _dyadic(upper) + offset)
-
-
-def _dyadic(a: Any) -> Fraction:
-    """An exact ``arb`` (a ball's end, m·2^e) as a rational."""
-    m, e = (int(v) for v in a.man_exp())
-    return Fraction(m << e) if e >= 0 else Fraction(m, 1 << -e)
+    ends = (end.fmpq() for end in (lower, upper))  # (a ball's ends are exact dyadic rationals: fmpq reads them)
+    return Enclosure(*(Fraction(int(q.p), int(q.q)) + offset for q in ends))
 
 
 def ln_of(e: Enclosure) -> Enclosure:
@@ -316,10 +312,9 @@ class RecordedMechanism:
     def t(self) -> Enclosure:
         """Randomized response's e^ε, enclosed, never below 1 (ε ≥ 0: a lower end below 1 would be a randomized
         response with its roles swapped)."""
-        eps = self.epsilon
-        if eps == INF:
+        if self.epsilon == INF:
             return Enclosure.point(INF)
-        t = exp_of(eps)  # type: ignore[arg-type]
+        t = exp_of(self.epsilon)  # type: ignore[arg-type]
         return Enclosure(max(Fraction(1), t.lo), t.hi)
 
     def rr_ends(self) -> tuple[tuple[Fraction, Fraction], tuple[Fraction, Fraction]]:
@@ -351,14 +346,10 @@ class RecordedMechanism:
         if self.kind == "randomized_response":
             return Enclosure.point(self.epsilon if self.k >= 2 else Fraction(0))  # type: ignore[arg-type]
         assert self.rows is not None
-        ratio: Fraction | float = Fraction(1)
-        for column in zip(*self.rows):
-            top, bottom = max(column), min(column)
-            if top > 0 and bottom == 0:
-                return Enclosure.point(INF)
-            if top > 0:
-                ratio = max(ratio, top / bottom)
-        return ln(ratio)
+        reached = [(max(column), min(column)) for column in zip(*self.rows) if max(column) > 0]
+        if any(bottom == 0 for _, bottom in reached):
+            return Enclosure.point(INF)
+        return ln(max([Fraction(1), *(top / bottom for top, bottom in reached)]))
 
     def matrix_rows(self) -> tuple[tuple[Fraction, ...], ...] | None:
         """Exact rows: a matrix's, the identity's; None for randomized response (irrational)."""
@@ -370,15 +361,13 @@ class RecordedMechanism:
 
     def largest_delta(self, epsilon: Fraction) -> Enclosure:
         """δ(ε) = max over a ≠ a' of Σ_o [M[a, o] − e^ε M[a', o]]₊, enclosed (it decreases in e^ε)."""
-        if self.k < 2:
+        # (one group: no pair; randomized response at ε ≥ ε_M: p − e^ε q = (e^ε_M − e^ε)/(e^ε_M + k − 1) ≤ 0, exactly 0)
+        if self.k < 2 or (self.kind == "randomized_response" and epsilon >= self.epsilon):  # type: ignore[operator]
             return Enclosure.point(Fraction(0))
         t = exp_of(epsilon)
-        if self.kind == "randomized_response" and epsilon >= self.epsilon:  # type: ignore[operator]
-            return Enclosure.point(Fraction(0))  # (p − e^ε q = (e^ε_M − e^ε)/(e^ε_M + k − 1) ≤ 0: exactly 0)
         low = high = self.matrix_rows()
         if low is None:  # randomized response: the rows of a pair on its own two columns (elsewhere both q: no mass
-            (p, q), (p_hi, q_hi) = self.rr_ends()  # at e^ε ≥ 1), at each end of e^ε_M (δ increases in it)
-            low, high = ((p, q), (q, p)), ((p_hi, q_hi), (q_hi, p_hi))
+            low, high = (((p, q), (q, p)) for p, q in self.rr_ends())  # at e^ε ≥ 1), at each end of e^ε_M (δ rises)
         return Enclosure(_largest_hockey_stick(low, t.hi), _largest_hockey_stick(high, t.lo))  # type: ignore[arg-type]
 
     def tight_pair_log(
@@ -394,7 +383,7 @@ class RecordedMechanism:
         """
         if self.kind == "randomized_response":
             # every pair is alike but for d(a, a'), and the bound increases in d: the pair at the largest distance
-            pairs = [(a, b) for a in range(self.k) for b in range(self.k) if a != b]
+            pairs = itertools.permutations(range(self.k), 2)
             a, b = (0, 1) if metric is None else max(pairs, key=lambda ab: Fraction(metric[ab[0]][ab[1]]))
             d = Fraction(1) if metric is None else Fraction(metric[a][b])
             c = lipschitz * d / tau
@@ -402,16 +391,12 @@ class RecordedMechanism:
             if t.hi == INF:  # the identity: δ = 1 at every ε, the minimum at t = 1
                 return ln(1 + c + gamma / tau), a, b
             # at t = 1: 1 + c + (γ/τ)(t − 1)/(t + k − 1), increasing in t
-            at_one = Enclosure(
-                1 + c + gamma / tau * (t.lo - 1) / (t.lo + m), 1 + c + gamma / tau * (t.hi - 1) / (t.hi + m)
-            )
-            at_eps = Enclosure(self.epsilon, self.epsilon) + Enclosure(ln(1 + c / t.hi).lo, ln(1 + c / t.lo).hi)  # type: ignore[arg-type]
-            one = Enclosure(ln(at_one.lo).lo, ln(at_one.hi).hi)
+            one = ln_of(Enclosure(*(1 + c + gamma / tau * (end - 1) / (end + m) for end in (t.lo, t.hi))))
+            at_eps = Enclosure.point(self.epsilon) + ln_of(Enclosure(1 + c / t.hi, 1 + c / t.lo))  # type: ignore[arg-type]
             return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), a, b
         rows = self.matrix_rows()
         assert rows is not None
-        ints, den = integers([rows])
-        ints = ints[0]
+        (ints,), den = integers([rows])
         scale = gamma / tau
 
         def shift(a: int, b: int) -> Fraction:

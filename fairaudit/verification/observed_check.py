@@ -10,6 +10,7 @@ it at the right end of each entry (``proofs/verification.md`` §2b).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -315,14 +316,12 @@ def max_ratio(planes: dict[Any, _Plane]) -> Enclosure:
     >>> max_ratio({"x": [[(F(1), F(2))], [(F(4), F(4))], None], "y": [[(F(1), F(1))]]})
     Enclosure(lo=Fraction(2, 1), hi=Fraction(4, 1))
     """
-    lo: Fraction | float = Fraction(1)
-    hi: Fraction | float = Fraction(1)
-    for plane in planes.values():
-        for column in zip(*(row for row in plane if row is not None)):
-            if len(column) >= 2:
-                lo = max(lo, ratio_of(max(e[0] for e in column), min(e[1] for e in column)))
-                hi = max(hi, ratio_of(max(e[1] for e in column), min(e[0] for e in column)))
-    return Enclosure(lo, hi)
+    columns = [c for plane in planes.values() for c in zip(*(row for row in plane if row is not None)) if len(c) >= 2]
+
+    def ratio(column: Sequence[Any], end: int) -> Fraction | float:  # the low (end 0) or the high (1) end
+        return ratio_of(max(e[end] for e in column), min(e[1 - end] for e in column))
+
+    return Enclosure(*(max([Fraction(1), *(ratio(c, end) for c in columns)]) for end in (0, 1)))
 
 
 def _identity(labels: list[Any]) -> RecordedMechanism:
@@ -372,32 +371,26 @@ def _number(name: str, reported: Any, value: Enclosure | None, undefined: str = 
 
 def _group_plane(pop: list[Any], ends: list[Any]) -> _Plane:
     """Σ_x P(x, a) ``T[x][a][u]`` / P(a) per group, at both ends of T (P(u | a) for the law); None where P(A = a) = 0."""
-    plane: _Plane = []
-    for a in range(len(pop[0])):
-        m = sum(row[a] for row in pop)
-        if m == 0:
-            plane.append(None)
-            continue
-        n = len(ends[0][0][a])
-        rows = [
-            [sum(pop[x][a] * end[x][a][u] for x in range(len(pop)) if pop[x][a]) / m for u in range(n)] for end in ends
-        ]
-        plane.append(list(zip(*rows)))
-    return plane
+
+    def mean(end: list[Any], a: int, mass: Fraction) -> list[Fraction]:
+        weighted = [[p[a] * v for v in plane[a]] for p, plane in zip(pop, end) if p[a]]
+        return [sum(column) / mass for column in zip(*weighted)]
+
+    masses = [sum(column) for column in zip(*pop)]
+    return [list(zip(*(mean(end, a, m) for end in ends))) if m else None for a, m in enumerate(masses)]
 
 
 def _max_tv(planes: dict[Any, _Plane]) -> Enclosure:
     """The largest TV = Σ_u (P_a(u) − P_b(u))⁺ over the planes and their ordered pairs of rows, enclosed (each term
-    increases in P_a(u) and decreases in P_b(u))."""
-    lo = hi = Fraction(0)
-    for plane in planes.values():
-        rows = [r for r in plane if r is not None]
-        for i, ra in enumerate(rows):
-            for j, rb in enumerate(rows):
-                if i != j:
-                    lo = max(lo, sum((max(Fraction(0), a[0] - b[1]) for a, b in zip(ra, rb)), Fraction(0)))
-                    hi = max(hi, sum((max(Fraction(0), a[1] - b[0]) for a, b in zip(ra, rb)), Fraction(0)))
-    return Enclosure(lo, hi)
+    increases in P_a(u) and decreases in P_b(u): its low end from P_a's low ends and P_b's high ends)."""
+    pairs = [
+        pair for plane in planes.values() for pair in itertools.permutations([r for r in plane if r is not None], 2)
+    ]
+
+    def tv(ra: list[Any], rb: list[Any], end: int) -> Fraction:
+        return sum((max(Fraction(0), a[end] - b[1 - end]) for a, b in zip(ra, rb)), Fraction(0))
+
+    return Enclosure(*(max((tv(ra, rb, end) for ra, rb in pairs), default=Fraction(0)) for end in (0, 1)))
 
 
 def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], labels: tuple[list[Any], list[Any]],
@@ -411,20 +404,15 @@ def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], lab
     if no_pair:
         return equal(check, names[1:3], [None, None], "no pair of groups to compare")
     where = f"at {names[0]!r}: {names[1]!r} over {names[2]!r}, {'event' if tv else 'decision'} {picked!r}"
-    plane = planes.get(names[0])  # (the schema types each label, the event a list of them)
-    known = (plane is not None and names[1] in groups and names[2] in groups
+    plane = planes.get(names[0]) or []  # (the schema types each label, the event a list of them)
+    known = (names[1] in groups and names[2] in groups
              and len(set(map(str, picked))) == len(picked) and all(u in decisions for u in picked))  # fmt: skip
-    ra = rb = None
-    if known:
-        assert plane is not None
-        ra, rb = plane[groups.index(names[1])], plane[groups.index(names[2])]
+    ra, rb = (plane[groups.index(names[1])], plane[groups.index(names[2])]) if known and plane else (None, None)
     if ra is None or rb is None:
         return equal(check, names, "labels of the inputs", f"no such cell: {where}")
     cols = [decisions.index(u) for u in picked]
-    if tv:
-        lo = sum((ra[u][0] - rb[u][1] for u in cols), Fraction(0))
-        hi = sum((ra[u][1] - rb[u][0] for u in cols), Fraction(0))
-        return judge(check, detail["value"], Enclosure(lo, hi), "estimate", where)
-    u = cols[0]
-    ratio = Enclosure(ratio_of(ra[u][0], rb[u][1]), ratio_of(ra[u][1], rb[u][0]))
-    return judge(check, detail["value"], ln_of(ratio), "estimate", where)
+    if tv:  # P(event | group) − P(event | other_group), at its low (end 0) and its high (1) end
+        value = Enclosure(*(sum((ra[u][end] - rb[u][1 - end] for u in cols), Fraction(0)) for end in (0, 1)))
+    else:  # ln of P(decision | group) / P(decision | other_group)
+        value = ln_of(Enclosure(*(ratio_of(ra[cols[0]][end], rb[cols[0]][1 - end]) for end in (0, 1))))
+    return judge(check, detail["value"], value, "estimate", where)

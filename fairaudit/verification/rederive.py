@@ -41,7 +41,7 @@ from fairaudit.verification.enclosures import (
 )
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import distribution_checks, recorded_checks
-from fairaudit.verification.schema import CertificateError
+from fairaudit.verification.schema import CertificateError, check_certificate
 from fairaudit.verification.verdict_check import verdict_checks
 
 __all__ = ["Verification", "canonical_digest", "verify"]
@@ -91,15 +91,10 @@ class Verification:
 
     def lines(self) -> list[str]:
         """The text report: one line per check, then what was not re-derived, then the verdict."""
-        out = [c.line() for c in self.checks]
-        out += [f"{n}: not re-derived ({r})" for n, r in self.not_checked]
-        n_fail = len(self.failures)
-        out.append(
-            f"{self.source}: all {len(self.checks)} checked numbers hold"
-            if n_fail == 0
-            else f"{self.source}: {n_fail} of {len(self.checks)} checked numbers fail"
-        )
-        return out
+        n_fail, n = len(self.failures), len(self.checks)
+        verdict = f"all {n} checked numbers hold" if n_fail == 0 else f"{n_fail} of {n} checked numbers fail"
+        skipped = [f"{name}: not re-derived ({reason})" for name, reason in self.not_checked]
+        return [c.line() for c in self.checks] + skipped + [f"{self.source}: {verdict}"]
 
 
 def verify(
@@ -158,8 +153,6 @@ def verify(
     >>> cert["tolerance"], [c.name for c in verify(cert).failures]
     (1e-09, ['bound_details.tight.value', 'bounds.tight'])
     """
-    from fairaudit.verification.schema import check_certificate
-
     check_certificate(certificate)
     with stated_tolerance(certificate["tolerance"]):  # every number is judged to it, and only during this verify
         return _rederived(certificate, privacy_filter, source)
@@ -258,10 +251,8 @@ def _theorem_checks(
 def _target_checks(cert: Mapping[str, Any]) -> list[Check]:
     """Each target's bound is the certificate's bound, and its verdicts follow from the numbers."""
     bounds, form = cert["bounds"], cert["bounds"]["best_form"]
-    if form == "none":
-        out = [equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf")]
-    else:
-        out = [equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}")]
+    expected, why = ("inf", "no form gives a bound: +inf") if form == "none" else (bounds[form], f"bounds.{form}")
+    out = [equal("bounds.best", bounds["best"], expected, why)]
     for kind, t in (cert.get("targets") or {}).items():
         expected = bounds["best"] if kind == "local" else bounds["global"]
         out.append(equal(f"targets.{kind}.bound", t["bound"], expected))
@@ -294,7 +285,7 @@ def _filter_check(m: RecordedMechanism, parameters: Mapping[str, Any]) -> Check:
             return verdict(False, f"the filter is a {kind}; the certificate's mechanism is randomized response")
         low, high = sorted((int(parameters["keep"]), int(parameters["move"])))
         ratio = Fraction(1) if len(inputs) < 2 else INF if low == 0 else Fraction(high, low)  # e^epsilon, exactly
-        t = Enclosure.point(INF) if m.epsilon == INF else exp_of(m.epsilon)  # type: ignore[arg-type]
+        t = m.t()  # (the schema's epsilon >= 0: e^epsilon's lower end is at least 1 unclamped too)
         if ratio <= t.lo:
             return verdict(True, "the filter's exact e^epsilon is at most the certificate's")
         why = "exceeds" if ratio > t.hi else "cannot be shown to be at most"
@@ -391,13 +382,13 @@ def _witness_checks(
     return out
 
 
-def _global_from_best(bounds: Mapping[str, Any], probabilities: Any) -> Check:
+def _global_from_best(cert: Mapping[str, Any]) -> Check:
     """``bounds.global`` from L's best bound: L-bar <= L + ln F, F = max r / min r with r(x, a) = P(x, a)/(P(x) P(a))
     over P(x) > 0 and P(a) > 0 (1 when X and A are independent exactly; ``proofs/black_box.md`` §6). The bound
     holds whatever F; certify gives it for X and A independent to 1e-9 (:data:`~fairaudit.verification.enclosures.INDEPENDENCE`, its
     ``Population.independence`` rule evaluated in floats: within 2^-40 relative of it, either reading is accepted), and
     +inf beyond."""
-    deviation, spread = independence(probabilities)
+    bounds, (deviation, spread) = cert["bounds"], independence(cert["inputs"]["population"]["probabilities"])
     if spread == 1:
         return equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L")
     if spread == INF:
@@ -428,16 +419,15 @@ def _maximiser(
     identity, where a pair's ratio may be c/0). Where a recorded dual (or the relaxation) gives the pair's upper end, a
     pair whose upper end reaches the value but whose lower end (the recorded point's) does not is listed in
     ``skip``: its upper end does not show that it attains the value."""
-    named = (where.get("context"),) if local else ()
-    labels = " vs ".join(str(v) for v in (*named, where.get("group"), where.get("other_group")))
+    context, group, other = where.get("context") if local else None, where.get("group"), where.get("other_group")
+    labels = " vs ".join(str(v) for v in ((context,) if local else ()) + (group, other))
     value = exact(where["value"], name)
     if where.get("certified") is False:  # (an inexact solve's value: its pair need only reach its witness)
         if where.get("witness") is None:
             skip.append((name, "the value is not certified and no witness is recorded"))
             return []
         value = exact(where["witness"], name)
-    group, other = where.get("group"), where.get("other_group")
-    ratio, from_duals = pair_enclosure(inputs, recorded, group, other, where.get("context") if local else None)
+    ratio, from_duals = pair_enclosure(inputs, recorded, group, other, context)
     reach = None if ratio is None else below_epsilon(ratio, eps).hi
     if reach is None:
         ok = False
@@ -461,9 +451,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         skipped += [
             (n, "the certificate gives no black-box bound") for n in ("bounds.black_box", "bound_details.black_box")
         ]
-        if bounds.get("global") is None:
-            return []
-        return [_global_from_best(bounds, cert["inputs"]["population"]["probabilities"])]  # L-bar from L, or +inf
+        return [] if bounds.get("global") is None else [_global_from_best(cert)]  # L-bar from L, or +inf
     worst = black_box_enclosures(cert["inputs"], detail)
     if worst.local is None:
         skipped += [(n, worst.reason) for n in ("bounds.black_box", "bounds.global", "bound_details.black_box")]
@@ -497,5 +485,5 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)
             out.append(equal("bounds.global", bounds["global"], "inf", "no bound: +inf bounds every value"))
         else:  # L-bar <= L + ln F when X and A are independent (within rounding: F > 1): the best bound on L
-            out.append(_global_from_best(bounds, cert["inputs"]["population"]["probabilities"]))
+            out.append(_global_from_best(cert))
     return out

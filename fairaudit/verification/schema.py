@@ -71,13 +71,7 @@ def certificate_schema() -> dict[str, Any]:
     >>> s["$schema"], s["properties"]["format_version"]
     ('https://json-schema.org/draft/2020-12/schema', {'const': 3})
     """
-    return json.loads(_schema_text())
-
-
-@functools.cache
-def _schema_text() -> str:
-    """The schema file's text, read once."""
-    return resources.files("fairaudit.verification").joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
+    return json.loads(resources.files("fairaudit.verification").joinpath(SCHEMA_FILE).read_text(encoding="utf-8"))
 
 
 @functools.cache
@@ -276,8 +270,6 @@ def _problem(error: ValidationError) -> str:
         return f"must be {expected!r}"
     if error.validator == "enum":
         return "must be one of " + ", ".join(repr(v) for v in expected)
-    if error.validator in _WEAK and "description" in schema:
-        return f"must be {schema['description']}"
     if error.validator in _WEAK:
-        return "matches none of the allowed forms"
+        return f"must be {schema['description']}" if "description" in schema else "matches none of the allowed forms"
     return error.message.removeprefix(f"{error.instance!r} ").strip()

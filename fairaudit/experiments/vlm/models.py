@@ -249,19 +249,16 @@ class SimulatedModel:
         missing = [c for c in need if c not in frame.columns]
         if missing:
             raise InputError("kernel", f"needs columns {need}", list(frame.columns))
-        profiles = {task.profile_label(q): i for i, q in enumerate(task.profiles)}
-        axes = (
-            [({c: i for i, c in enumerate(task.contexts)}, task.context_name)]
-            + [(profiles, o) for o in slots]
-            + [({d: i for i, d in enumerate(task.decisions)}, "decision")]
-        )
+        profiles = [task.profile_label(q) for q in task.profiles]
+        axes = {task.context_name: task.contexts, **dict.fromkeys(slots, profiles), "decision": task.decisions}
         idx = []
-        for lookup, col in axes:
-            codes = frame[col].map(lookup)
-            if codes.isna().any():
-                bad = frame[col][codes.isna()].iloc[0]
-                raise InputError(f"kernel column '{col}'", f"value not among {list(lookup)}", bad)
-            idx.append(codes.to_numpy(dtype=int))
+        for col, labels in axes.items():
+            codes = pd.Index(labels).get_indexer(frame[col])  # -1: not a label
+            if np.any(codes < 0):
+                raise InputError(
+                    f"kernel column '{col}'", f"value not among {list(labels)}", frame[col][codes < 0].iloc[0]
+                )
+            idx.append(codes)
         try:
             values = frame[value_col].astype(float).to_numpy()
         except ValueError:

@@ -139,9 +139,7 @@ class _Options:
         self.index = {norm: i for i, norm in enumerate(norms)}
         self.mention = [_mention(name) for name in names]
         longest_first = sorted(names, key=len, reverse=True)
-        self.any_mention = re.compile(
-            "|".join(rf"(?<!\w){_variant(name)}(?!\w)" for name in longest_first), re.IGNORECASE
-        )
+        self.any_mention = re.compile("|".join(_mention(name).pattern for name in longest_first), re.IGNORECASE)
         self.pair = [_pair(name) for name in names]
         self.numbered = numbered(names)
 

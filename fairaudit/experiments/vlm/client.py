@@ -369,15 +369,12 @@ class ChatClient:
                 raise InputError(f"messages[{i}]", "must be a dict with a 'role'", message)
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, Integral)):
             raise InputError("seed", "must be an integer or None", seed)
-        body: dict[str, Any] = {"model": self.model, "messages": list(messages)}
         seed = None if seed is None else int(seed)
         sampling = {"seed": seed, "temperature": self.temperature, "top_p": self.top_p, "max_tokens": self.max_tokens}
-        body.update({key: value for key, value in sampling.items() if value is not None})
         if self.top_logprobs is not None:
-            body["logprobs"] = True
-            body["top_logprobs"] = self.top_logprobs
-        body.update(self.extra_body)
-        body.update(extra or {})
+            sampling |= {"logprobs": True, "top_logprobs": self.top_logprobs}
+        body = {"model": self.model, "messages": list(messages)} | {k: v for k, v in sampling.items() if v is not None}
+        body |= self.extra_body | (extra or {})  # the request's own fields last
         try:
             return json.dumps(body, ensure_ascii=False, allow_nan=False).encode("utf-8")
         except (TypeError, ValueError):

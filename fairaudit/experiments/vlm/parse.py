@@ -305,10 +305,8 @@ def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False, partial:
             return ParsedReply(
                 ok=False, error=f"ambiguous: no JSON decision and the text names several options ({listed})"
             )
-    keys = ", ".join(spec.names)
-    if objects:
-        return ParsedReply(ok=False, error=f"no JSON object with the keys {keys}")
-    return ParsedReply(ok=False, error=f"no JSON object with the keys {keys} and no decision in the text")
+    tail = "" if objects else " and no decision in the text"
+    return ParsedReply(ok=False, error=f"no JSON object with the keys {', '.join(spec.names)}{tail}")
 
 
 # ----------------------------------------------------------------------------------------------

@@ -621,11 +621,9 @@ def _api_key(api_key: Any, env: Any) -> str | None:
     if not isinstance(env, str) or not env:
         raise InputError("api_key_env", "must be the name of an environment variable", env)
     value = os.environ.get(env, "").strip()
-    if not value:
-        return None
-    if not re.fullmatch(r"[\x21-\x7e]+", value):
+    if value and not re.fullmatch(r"[\x21-\x7e]+", value):
         raise InputError(f"environment variable {env}", "must be printable ASCII without spaces")
-    return value
+    return value or None  # unset or blank: no Authorization header
 
 
 def _retry_after(value: str | None) -> float | None:

@@ -180,11 +180,8 @@ def _curve_figure(analysis: ExperimentAnalysis) -> Figure:
     notes = _draw_design_points(analysis, ax)
     for note in notes:  # a legend entry without a mark: what could not be drawn
         ax.plot([], [], ls="none", label=note)[0].set_in_layout(False)
-    ax.set_xlabel(
-        "privacy budget ε of a candidate (nats; both profiles shown)"
-        if _one_pair(analysis.task)
-        else "privacy budget ε of a candidate (nats; all its prompt shows)"
-    )
+    shown = "both profiles shown" if _one_pair(analysis.task) else "all its prompt shows"
+    ax.set_xlabel(f"privacy budget ε of a candidate (nats; {shown})")
     ax.set_ylabel("local L and global L̄ (nats)")
     ax.get_legend().remove()
     handles, labels = ax.get_legend_handles_labels()

@@ -474,27 +474,20 @@ def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: st
     """A reply from a key that names the answer (``{"choice": "HR2"}``, ``{"order": [...]}``); None if none."""
     reason = _reason(container, parent)
     for key, value in container.items():
-        if not isinstance(key, str):
-            continue
-        nk = _norm(key)
+        nk = _norm(key) if isinstance(key, str) else None
         if kind == "order" and nk in _ORDER_KEYS:
             order = _sequence(value, spec)
-            if order is None:
-                return ParsedReply(
-                    ok=False, reason=reason, error=f"{key!r} is not an order of {', '.join(spec.names)}: {_clip(value)}"
-                )
-            return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, reason, False)
-        if nk in _CHOICE_KEYS and (kind == "choice" or spec.n == 2):
-            if isinstance(value, (dict, list)):
-                continue
+            if order is not None:
+                return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, reason, False)
+            problem = "is not an order of"
+        elif nk in _CHOICE_KEYS and (kind == "choice" or spec.n == 2) and not isinstance(value, (dict, list)):
             index = _option_index(value, spec)
-            if index is None:
-                return ParsedReply(
-                    ok=False,
-                    reason=reason,
-                    error=f"{key!r} does not name one of {', '.join(spec.names)}: {_clip(value)}",
-                )
-            return _result_from_choice(index, spec, kind, reason, False)
+            if index is not None:
+                return _result_from_choice(index, spec, kind, reason, False)
+            problem = "does not name one of"
+        else:
+            continue
+        return ParsedReply(ok=False, reason=reason, error=f"{key!r} {problem} {', '.join(spec.names)}: {_clip(value)}")
     return None
 
 

@@ -578,9 +578,7 @@ def _chat_url(endpoint: Any) -> tuple[str, str]:
         )
     if parts.scheme.lower() not in ("http", "https") or not parts.hostname:
         raise InputError("endpoint", hint, urlunsplit((parts.scheme, parts.netloc, parts.path, "", "")))
-    path = parts.path.rstrip("/")
-    if not path.endswith("/chat/completions"):
-        path += "/chat/completions"
+    path = parts.path.rstrip("/").removesuffix("/chat/completions") + "/chat/completions"
     scheme = parts.scheme.lower()
     return urlunsplit((scheme, parts.netloc, path, parts.query, "")), urlunsplit((scheme, parts.netloc, path, "", ""))
 

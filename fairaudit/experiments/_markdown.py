@@ -116,9 +116,8 @@ def _unparsed_md(utility: dict) -> str:
     u = utility.get("unparsed")
     if u is None:
         return ""
-    if u["source"] == "given":
-        return f" An unparsed reply counts g = {_f(u['value'])} (given: `[utility] unparsed`)."
-    return f" An unparsed reply counts g = {_f(u['value'])} ({u['source']}: {u['rule']})."
+    how = "given: `[utility] unparsed`" if u["source"] == "given" else f"{u['source']}: {u['rule']}"
+    return f" An unparsed reply counts g = {_f(u['value'])} ({how})."
 
 
 def _intro_md(d: dict) -> list[str]:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -127,18 +127,35 @@ class TargetBudget:
         return self.stated_default.feasible and self.unparsed_upper > self.target
 
 
-def _budgets(
-    task: DeliveryTask,
-    positions: str,
-    targets: Sequence[float],
-    kc: Kernel,
-    utility: Utility,
-    pop: Population,
-    mx: Mechanism,
-    tau: float | None,
-    context_epsilon: float | None,
-    points: Sequence[PointResult],
-) -> tuple[TargetBudget, ...]:
+@dataclass(frozen=True)
+class _Setting:
+    """What every ε of one analysis shares (:func:`_point`, :func:`_budgets`): the per-candidate kernel ``kc``, g,
+    the population, M_X and the run's options."""
+
+    task: DeliveryTask
+    positions: str
+    kc: Kernel
+    utility: Utility
+    pop: Population
+    mx: Mechanism
+    confidence: float | None
+    method: str
+    tau: float | None
+    context_epsilon: float | None
+
+    def mechanism(self, eps: float) -> tuple[TaskFilter, Mechanism]:
+        """The filter that gives each candidate ``eps`` (nats), and M_cand, its mechanism on a candidate."""
+        filt = TaskFilter.for_candidates(self.task, eps, self.positions, context_epsilon=self.context_epsilon)
+        return filt, filt.candidate_mechanism(self.positions)
+
+    def unparsed_range(self, mech: Mechanism) -> UtilityRange:
+        """L and L̄ behind ``mech`` over every utility of the unparsed reply (:func:`fairaudit.fairness_range`)."""
+        return fairness_range(
+            self.kc, self.utility, -1, sensitive_mechanism=mech, context_mechanism=self.mx, population=self.pop
+        )
+
+
+def _budgets(s: _Setting, targets: Sequence[float], points: Sequence[PointResult]) -> tuple[TargetBudget, ...]:
     """Per target and kind the white-box ε (on the unparsed range's upper end, and under the stated default) and the
     black-box ε, with the unparsed range's upper end at the stated default's ε (the ``points``' ranges, or computed)."""
     from fairaudit import calibrate
@@ -147,23 +164,23 @@ def _budgets(
 
     def upper_at(e: float, kind: str) -> float:  # at the white-box ε of a target, with this run's M_X
         if e not in ranges:
-            filt = TaskFilter.for_candidates(task, e, positions, context_epsilon=context_epsilon)
-            mech = filt.candidate_mechanism(positions)
-            ranges[e] = fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
+            ranges[e] = s.unparsed_range(s.mechanism(e)[1])
         r = ranges[e]
         return (r.local_fairness if kind == "local" else r.global_fairness).upper
 
-    family = candidate_family(task, positions)
-    white_box: dict[str, Any] = {"family": family, "kernel": kc, "utility": utility, "population": pop}
-    utility_class = UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau)
+    family = candidate_family(s.task, s.positions)
+    white_box: dict[str, Any] = {"family": family, "kernel": s.kc, "utility": s.utility, "population": s.pop}
+    utility_class = UtilityClass(gamma=s.utility.gamma, lower=s.utility.lower, tau=s.tau)
     out = []
     for target, kind in itertools.product(sorted({float(t) for t in targets}), ("local", "global")):
         white = {
-            d: calibrate(target, kind=kind, method="white_box", context_mechanism=mx, unparsed_decision=d, **white_box)
+            d: calibrate(
+                target, kind=kind, method="white_box", context_mechanism=s.mx, unparsed_decision=d, **white_box
+            )
             for d in (-1, None)
         }
         black = calibrate(
-            target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=pop
+            target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=s.pop
         )
         stated = white[None]
         upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
@@ -393,32 +410,20 @@ class ExperimentAnalysis(RunAnalysis):
     unparsed_mass: UnparsedMass | None = None
 
 
-def _point(
-    task: DeliveryTask,
-    positions: str,
-    eps: float,
-    kc: Kernel,
-    utility: Utility,
-    pop: Population,
-    mx: Mechanism,
-    confidence: float | None,
-    method: str,
-    tau: float | None,
-    context_epsilon: float | None,
-) -> PointResult:
+def _point(s: _Setting, eps: float) -> PointResult:
     from fairaudit import worst_model
 
-    filt = TaskFilter.for_candidates(task, eps, positions, context_epsilon=context_epsilon)
-    mech = filt.candidate_mechanism(positions)
+    filt, mech = s.mechanism(eps)
+    kc, utility, pop, mx = s.kc, s.utility, s.pop, s.mx
     law = compose(kc, mech, mx)
     iv = None
-    if confidence is not None and kc.counts is not None:
+    if s.confidence is not None and kc.counts is not None:
         table = CountTable(
-            kc.counts, kc.contexts, kc.groups, kc.decisions, (candidate_context_name(task),), ("shown",), "outcome"
+            kc.counts, kc.contexts, kc.groups, kc.decisions, (candidate_context_name(s.task),), ("shown",), "outcome"
         )
-        options = IntervalOptions(confidence=confidence, method=method)
+        options = IntervalOptions(confidence=s.confidence, method=s.method)
         iv = fairness_intervals(table, utility, options, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
-    wm = worst_model(mech, utility, context_mechanism=mx, population=pop, tau=tau)
+    wm = worst_model(mech, utility, context_mechanism=mx, population=pop, tau=s.tau)
     bounds = (wm.local_fairness.value, wm.global_fairness.value)
     return PointResult(
         epsilon=eps,
@@ -431,8 +436,8 @@ def _point(
         black_box_local=wm.local_fairness.value,
         black_box_global=wm.global_fairness.value,
         corollary=mech.epsilon,
-        unparsed_range=fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop),
-        bound_ranges=bound_ranges(mech, utility, bounds, context_mechanism=mx, population=pop, tau=tau),
+        unparsed_range=s.unparsed_range(mech),
+        bound_ranges=bound_ranges(mech, utility, bounds, context_mechanism=mx, population=pop, tau=s.tau),
     )
 
 
@@ -599,12 +604,10 @@ def analyse_kernel(
         utility_class=UtilityClass(tau=tau),
         title=f"{task.name}: {model}",
     )
-    points = tuple(
-        _point(task, positions, e, kc, utility, pop, mx, confidence, method, tau, context_epsilon) for e in eps
-    )
-    baseline = _point(
-        task, positions, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None
-    )
+    setting = _Setting(task, positions, kc, utility, pop, mx, confidence, method, tau, context_epsilon)
+    points = tuple(_point(setting, e) for e in eps)
+    no_filter = replace(setting, mx=identity(candidate_contexts(task)), context_epsilon=None)
+    baseline = _point(no_filter, math.inf)
     probs = kernel.probabilities
     prompts, _ = true_prompts(task, "balanced")
     shares = probs[:, np.ravel_multi_index(tuple(prompts.T), (len(task.profiles),) * task.slots)]
@@ -632,6 +635,6 @@ def analyse_kernel(
         route="sampled" if counts is not None else "exact",
         unparsed_share=float(probs[..., -1].mean()),
         split=position_split(task, expected_utility(task, probs, np.asarray(task.utility_values))),
-        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, context_epsilon, points),
+        budgets=_budgets(setting, targets, points),
         unparsed_mass=unparsed_mass(task, kernel),
     )

@@ -68,10 +68,7 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
     for j, xs in enumerate((np.arange(n) - width / 2, np.arange(n) + width / 2)):
         s = analysis.shares[:, j, :]
         first, second = (s[:, 0], s[:, 1]) if j == 0 else (s[:, 1], s[:, 0])  # candidate 1's share, 2's
-        bottoms = np.zeros(n)
-        for vals, color in zip((first, second, s[:, 2]), colors):
-            ax.bar(xs, vals, width * 0.95, bottom=bottoms, color=color, edgecolor="white", hatch=hatches[j])
-            bottoms += vals
+        _stack(ax, xs, (first, second, s[:, 2]), width * 0.95, colors, hatches[j])
     verb = "chosen" if t.kind == "choice" else "served first"
     _baseline_axes(ax, analysis, f"who is {verb}")
     who = [Patch(facecolor=c, edgecolor="white", label=lab) for c, lab in zip(colors, (c1, c2, "unparsed"))]
@@ -81,6 +78,14 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
     ]
     _side_legends(ax, (who, f"who is {verb}"), (orders, "order (bars)"))
     return fig
+
+
+def _stack(ax: Axes, xs: np.ndarray, parts: Any, width: float, colors: list, hatch: str) -> None:
+    """Bars at ``xs``, each a stack of ``parts`` (one array over ``xs`` per colour, bottom first; NaN: no bar)."""
+    bottoms = np.zeros(len(xs))
+    for values, color in zip(parts, colors):
+        ax.bar(xs, values, width, bottom=bottoms, color=color, edgecolor="white", hatch=hatch)
+        bottoms += np.nan_to_num(values)
 
 
 def _baseline_axes(ax: Axes, analysis: ExperimentAnalysis, what: str, sep: str = ": ") -> None:
@@ -132,11 +137,7 @@ def _outcome_figure(analysis: ExperimentAnalysis) -> Figure:
     hatches = ["", "//", "\\\\", "..", "xx", "oo", "--", "++"]
     for j in range(n_g):
         xs = np.arange(n_x) - 0.4 + width * (j + 0.5)
-        bottoms = np.zeros(n_x)
-        for o in range(n_o):
-            ax.bar(xs, shares[:, j, o], width * 0.92, bottom=bottoms, color=colors[o], edgecolor="white",
-                   hatch=hatches[j % len(hatches)])  # fmt: skip
-            bottoms += np.nan_to_num(shares[:, j, o])
+        _stack(ax, xs, shares[:, j, :].T, width * 0.92, colors, hatches[j % len(hatches)])
     _baseline_axes(ax, analysis, "of each outcome", sep=" ")
     outcomes = [Patch(facecolor=c, edgecolor="white", label=o) for c, o in zip(colors, t.outcomes)]
     who = [
@@ -179,11 +180,8 @@ def _curve_figure(analysis: ExperimentAnalysis) -> Figure:
     notes = _draw_design_points(analysis, ax)
     for note in notes:  # a legend entry without a mark: what could not be drawn
         ax.plot([], [], ls="none", label=note)[0].set_in_layout(False)
-    ax.set_xlabel(
-        "privacy budget ε of a candidate (nats; both profiles shown)"
-        if _one_pair(analysis.task)
-        else "privacy budget ε of a candidate (nats; all its prompt shows)"
-    )
+    shown = "both profiles shown" if _one_pair(analysis.task) else "all its prompt shows"
+    ax.set_xlabel(f"privacy budget ε of a candidate (nats; {shown})")
     ax.set_ylabel("local L and global L̄ (nats)")
     ax.get_legend().remove()
     handles, labels = ax.get_legend_handles_labels()

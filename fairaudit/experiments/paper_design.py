@@ -124,38 +124,34 @@ def paper_design_bounds(
     utility = candidate_utility(task) if utility is None else utility
     filt = TaskFilter.for_candidates(task, eps, positions, context_epsilon=context_epsilon)
     closed = math.inf if math.isinf(eps) else candidate_epsilon(task, filt.epsilon_attributes, positions)
-    if closed is not None and utility.lower == 0 and tau is None and positions != "fixed":
-        return DesignBounds(
-            epsilon=eps,
-            filter=filt,
-            corollary=closed,
-            black_box_local=closed,
-            black_box_global=closed,
-            closed_form=True,
-        )
-    from fairaudit import worst_model
+    closed_form = closed is not None and utility.lower == 0 and tau is None and positions != "fixed"
+    if closed_form and closed is not None:
+        corollary = local = global_ = closed
+    else:
+        from fairaudit import worst_model
 
-    try:
-        mech = filt.candidate_mechanism(positions)
-    except InputError as exc:
-        if closed is None or positions == "fixed":
-            raise
-        why = "a floor tau" if tau is not None else f"a utility whose smallest value is {utility.lower:g}, not 0"
-        n, k = len(task.profiles), task.slots
-        raise InputError(
-            "utility",
-            f"the black-box bound with {why} needs the candidate's mechanism, whose {n}^{k} = {n**k:,} views are "
-            "too many to build; with a utility that takes the value 0 it is epsilon itself, in closed form",
-        ) from exc
-    mx = candidate_context_mechanism(task, context_epsilon)
-    wm = worst_model(mech, utility, context_mechanism=mx, population=candidate_population(task, positions), tau=tau)
+        try:
+            mech = filt.candidate_mechanism(positions)
+        except InputError as exc:
+            if closed is None or positions == "fixed":
+                raise
+            why = "a floor tau" if tau is not None else f"a utility whose smallest value is {utility.lower:g}, not 0"
+            n, k = len(task.profiles), task.slots
+            raise InputError(
+                "utility",
+                f"the black-box bound with {why} needs the candidate's mechanism, whose {n}^{k} = {n**k:,} views "
+                "are too many to build; with a utility that takes the value 0 it is epsilon itself, in closed form",
+            ) from exc
+        mx = candidate_context_mechanism(task, context_epsilon)
+        wm = worst_model(mech, utility, context_mechanism=mx, population=candidate_population(task, positions), tau=tau)
+        corollary, local, global_ = mech.epsilon, wm.local_fairness.value, wm.global_fairness.value
     return DesignBounds(
         epsilon=eps,
         filter=filt,
-        corollary=mech.epsilon,
-        black_box_local=wm.local_fairness.value,
-        black_box_global=wm.global_fairness.value,
-        closed_form=False,
+        corollary=corollary,
+        black_box_local=local,
+        black_box_global=global_,
+        closed_form=closed_form,
     )
 
 

@@ -132,57 +132,49 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
     """
     a, t = analysis, analysis.task
     j = json.dumps
-    rows = ",\n  ".join(j([float(v) for v in r]) for r in point.mechanism.matrix)
     ctx = point.filter.context_mechanism
+    model = (
+        {"count_column": "count"} if a.candidate_kernel.counts is not None else {"probability_column": "probability"}
+    )
     lines = [
         f"# {t.name}: {a.model}; the candidate's ε = {point.epsilon:.6g} nats "
         f"(keep p = {', '.join(f'{q:.6g}' for q in point.filter.keep_probabilities)} per attribute)",
         f"title = {j(f'{t.name}: {a.model}, per candidate, epsilon = {point.epsilon:.6g}')}",
         "",
-        "[sensitive]",
-        'name = "profile"',
-        f"values = {j(list(a.population.groups))}",
-        "",
-        "[context]",
-        'name = "context"',
-        f"values = {j(list(a.population.contexts))}",
-        "",
-        "[decision]",
-        'name = "outcome"',
-        f"values = {j(list(t.outcomes))}",
-        *([f"unparsed = {j(UNPARSED)}"] if UNPARSED in t.outcomes else []),
-        "",
-        "[population]",
-        "probabilities = [\n  " + ",\n  ".join(j(r) for r in a.population.probabilities.tolist()) + "\n]",
-        "",
-        "[privacy.sensitive]",
-        'mechanism = "matrix"',
-        f"name = {j(point.mechanism.name)}",
-        f"outputs = {j(list(point.mechanism.outputs))}",
-        f"rows = [\n  {rows}\n]",
-        "",
+        *_toml("sensitive", name="profile", values=list(a.population.groups)),
+        *_toml("context", name="context", values=list(a.population.contexts)),
+        *_toml(
+            "decision", name="outcome", values=list(t.outcomes), unparsed=UNPARSED if UNPARSED in t.outcomes else None
+        ),
+        *_toml("population", probabilities=a.population.probabilities),
+        *_toml(
+            "privacy.sensitive",
+            mechanism="matrix",
+            name=point.mechanism.name,
+            outputs=list(point.mechanism.outputs),
+            rows=point.mechanism.matrix,
+        ),
         *_family_lines(a, point),
     ]
     if ctx.epsilon != float("inf"):
-        m = np.kron(ctx.matrix, np.eye(t.slots))
-        lines += [
-            "[privacy.context]",
-            'mechanism = "matrix"',
-            f"name = {j(ctx.name)}",
-            "rows = [\n  " + ",\n  ".join(j(r) for r in m.tolist()) + "\n]",
-            "",
-        ]
-    lines += [
-        "[model]",
-        'table = "candidates.csv"',
-        'count_column = "count"' if a.candidate_kernel.counts is not None else 'probability_column = "probability"',
-        "",
-        "[utility]",
-        'kind = "table"',
-        f"values = {j([float(v) for v in t.utility_values])}",
-        *([f"tau = {j(float(a.tau))}"] if a.tau is not None else []),
-    ]
-    return "\n".join(lines) + "\n"
+        lines += _toml("privacy.context", mechanism="matrix", name=ctx.name, rows=np.kron(ctx.matrix, np.eye(t.slots)))
+    lines += _toml("model", table="candidates.csv", **model)
+    tau = None if a.tau is None else float(a.tau)
+    lines += _toml("utility", kind="table", values=[float(v) for v in t.utility_values], tau=tau)
+    return "\n".join(lines)
+
+
+def _toml(header: str, /, **keys: Any) -> list[str]:
+    """The lines of TOML table ``header``: the header, ``key = value`` per keyword whose value is not None, a blank
+    line. Values are written with ``json.dumps`` (TOML's strings, arrays and floats accept them); a 2-D array one
+    row a line."""
+
+    def value(v: Any) -> str:
+        if isinstance(v, np.ndarray):
+            return "[\n  " + ",\n  ".join(json.dumps(row) for row in v.tolist()) + "\n]"
+        return json.dumps(v)
+
+    return [f"[{header}]", *(f"{k} = {value(v)}" for k, v in keys.items() if v is not None), ""]
 
 
 def _family_lines(analysis: ExperimentAnalysis, point: PointResult) -> list[str]:

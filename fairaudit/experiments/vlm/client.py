@@ -369,15 +369,12 @@ class ChatClient:
                 raise InputError(f"messages[{i}]", "must be a dict with a 'role'", message)
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, Integral)):
             raise InputError("seed", "must be an integer or None", seed)
-        body: dict[str, Any] = {"model": self.model, "messages": list(messages)}
         seed = None if seed is None else int(seed)
         sampling = {"seed": seed, "temperature": self.temperature, "top_p": self.top_p, "max_tokens": self.max_tokens}
-        body.update({key: value for key, value in sampling.items() if value is not None})
         if self.top_logprobs is not None:
-            body["logprobs"] = True
-            body["top_logprobs"] = self.top_logprobs
-        body.update(self.extra_body)
-        body.update(extra or {})
+            sampling |= {"logprobs": True, "top_logprobs": self.top_logprobs}
+        body = {"model": self.model, "messages": list(messages)} | {k: v for k, v in sampling.items() if v is not None}
+        body |= self.extra_body | (extra or {})  # the request's own fields last
         try:
             return json.dumps(body, ensure_ascii=False, allow_nan=False).encode("utf-8")
         except (TypeError, ValueError):
@@ -581,9 +578,7 @@ def _chat_url(endpoint: Any) -> tuple[str, str]:
         )
     if parts.scheme.lower() not in ("http", "https") or not parts.hostname:
         raise InputError("endpoint", hint, urlunsplit((parts.scheme, parts.netloc, parts.path, "", "")))
-    path = parts.path.rstrip("/")
-    if not path.endswith("/chat/completions"):
-        path += "/chat/completions"
+    path = parts.path.rstrip("/").removesuffix("/chat/completions") + "/chat/completions"
     scheme = parts.scheme.lower()
     return urlunsplit((scheme, parts.netloc, path, parts.query, "")), urlunsplit((scheme, parts.netloc, path, "", ""))
 
@@ -624,11 +619,9 @@ def _api_key(api_key: Any, env: Any) -> str | None:
     if not isinstance(env, str) or not env:
         raise InputError("api_key_env", "must be the name of an environment variable", env)
     value = os.environ.get(env, "").strip()
-    if not value:
-        return None
-    if not re.fullmatch(r"[\x21-\x7e]+", value):
+    if value and not re.fullmatch(r"[\x21-\x7e]+", value):
         raise InputError(f"environment variable {env}", "must be printable ASCII without spaces")
-    return value
+    return value or None  # unset or blank: no Authorization header
 
 
 def _retry_after(value: str | None) -> float | None:

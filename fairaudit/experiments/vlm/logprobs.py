@@ -20,6 +20,7 @@ give (:func:`shared_first_token`); such a task is run by sampling instead.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
@@ -80,29 +81,13 @@ def first_token_logprobs(reply: Any) -> tuple[tuple[str, float], ...] | None:
     >>> first_token_logprobs({"choices": [{"message": {"content": "1"}}]}) is None
     True
     """
-    entries = reply if isinstance(reply, (list, tuple)) else _top_list(reply)
-    if not entries:
+    if isinstance(reply, (list, tuple)):
+        return _pairs(reply)
+    try:
+        entries = reply["choices"][0]["logprobs"]["content"][0]["top_logprobs"]
+    except (KeyError, IndexError, TypeError):  # the path breaks: no log-probabilities
         return None
-    out = []
-    for entry in entries:
-        token, logprob = _entry(entry)
-        if token is None or logprob is None:
-            return None
-        out.append((token, logprob))
-    return tuple(out)
-
-
-def _top_list(reply: Any) -> Any:
-    """``choices[0].logprobs.content[0].top_logprobs`` of a parsed reply, or None where the path breaks."""
-    node = reply
-    for key in ("choices", 0, "logprobs", "content", 0, "top_logprobs"):
-        if isinstance(key, int):
-            node = node[0] if isinstance(node, list) and node else None
-        else:
-            node = node.get(key) if isinstance(node, Mapping) else None
-        if node is None:
-            return None
-    return node if isinstance(node, list) else None
+    return _pairs(entries) if isinstance(entries, list) else None
 
 
 def _entry(entry: Any) -> tuple[str | None, float | None]:
@@ -425,13 +410,14 @@ def echo_token_logprobs(reply: Any, prompt: str) -> tuple[tuple[str, float], ...
 
 
 def _after_first(entries: Iterable[Any]) -> tuple[tuple[str, float], ...] | None:
-    """(token, log-probability) of each entry (:func:`_entry`) after the leading None ones (the first token: nothing
-    precedes it); None when an entry is not one, or none is left."""
-    out: list[tuple[str, float]] = []
-    for entry in entries:
-        if entry is None and not out:
-            continue
-        token, logprob = _entry(entry)
+    """:func:`_pairs` of the entries after the leading None ones (the first token: nothing precedes it)."""
+    return _pairs(itertools.dropwhile(lambda entry: entry is None, entries))
+
+
+def _pairs(entries: Iterable[Any]) -> tuple[tuple[str, float], ...] | None:
+    """(token, log-probability) of each entry (:func:`_entry`); None when an entry is not one, or there is none."""
+    out = []
+    for token, logprob in map(_entry, entries):
         if token is None or logprob is None:
             return None
         out.append((token, logprob))

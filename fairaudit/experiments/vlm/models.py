@@ -139,29 +139,21 @@ def reply_text(
     """
     if decision is None:
         return "I am sorry, but I cannot make this decision."
-    n = len(task.options)
     if task.named_by is not None:
         return _named_reply(task, decision, rng, names)
     if task.partial and decision >= len(task.orders):  # a partial ranking: its options in order, as a list
         return ", ".join(task.options[i] for i in task.rankings[decision])
     if task.kind == "choice":
         values = {o: "1.0" if i == decision else "0.0" for i, o in enumerate(task.options)}
-    else:
-        if task.slots > 2:  # decision indexes an order
-            order = task.orders[decision]
-        else:  # the option served first gets 1, the other 2
-            order = (decision, *(i for i in range(n) if i != decision))
+    else:  # decision indexes an order (k >= 3), or is the option served first (1) before the other (2)
+        order = task.orders[decision] if task.slots > 2 else (decision, 1 - decision)
         rank = {slot: r + 1 for r, slot in enumerate(order)}
         values = {o: f"{rank[i]:.1f}" for i, o in enumerate(task.options)}
-    text = json.dumps({**values, "reason": "simulated decision"})
-    if rng is None:
-        return text
-    style = rng.integers(3)
+    reply = {**values, "reason": "simulated decision"}
+    style = 0 if rng is None else rng.integers(3)
     if style == 1:
-        return f"```json\n{json.dumps({**values, 'reason': 'simulated decision'}, indent=4)}\n```"
-    if style == 2:
-        return f"Here is my decision.\n{text}\nI hope this helps."
-    return text
+        return f"```json\n{json.dumps(reply, indent=4)}\n```"
+    return f"Here is my decision.\n{json.dumps(reply)}\nI hope this helps." if style == 2 else json.dumps(reply)
 
 
 def _named_reply(task: DeliveryTask, decision: int, rng: np.random.Generator | None, names: Sequence[str]) -> str:
@@ -249,19 +241,16 @@ class SimulatedModel:
         missing = [c for c in need if c not in frame.columns]
         if missing:
             raise InputError("kernel", f"needs columns {need}", list(frame.columns))
-        profiles = {task.profile_label(q): i for i, q in enumerate(task.profiles)}
-        axes = (
-            [({c: i for i, c in enumerate(task.contexts)}, task.context_name)]
-            + [(profiles, o) for o in slots]
-            + [({d: i for i, d in enumerate(task.decisions)}, "decision")]
-        )
+        profiles = [task.profile_label(q) for q in task.profiles]
+        axes = {task.context_name: task.contexts, **dict.fromkeys(slots, profiles), "decision": task.decisions}
         idx = []
-        for lookup, col in axes:
-            codes = frame[col].map(lookup)
-            if codes.isna().any():
-                bad = frame[col][codes.isna()].iloc[0]
-                raise InputError(f"kernel column '{col}'", f"value not among {list(lookup)}", bad)
-            idx.append(codes.to_numpy(dtype=int))
+        for col, labels in axes.items():
+            codes = pd.Index(labels).get_indexer(frame[col])  # -1: not a label
+            if np.any(codes < 0):
+                raise InputError(
+                    f"kernel column '{col}'", f"value not among {list(labels)}", frame[col][codes < 0].iloc[0]
+                )
+            idx.append(codes)
         try:
             values = frame[value_col].astype(float).to_numpy()
         except ValueError:

@@ -78,6 +78,7 @@ _CHOICE_KEYS = frozenset(
     "servedfirst finalanswer finalchoice finaldecision".split()
 )
 _ORDER_KEYS = frozenset("order ranking rank sequence deliveryorder servingorder orderofdelivery".split())
+_WORDS = {"true": 1.0, "yes": 1.0, "false": 0.0, "no": 0.0}  # what a word value counts as
 _REASON_KEYS = ("reason", "reasoning", "explanation", "rationale", "justification")
 
 
@@ -138,9 +139,7 @@ class _Options:
         self.index = {norm: i for i, norm in enumerate(norms)}
         self.mention = [_mention(name) for name in names]
         longest_first = sorted(names, key=len, reverse=True)
-        self.any_mention = re.compile(
-            "|".join(rf"(?<!\w){_variant(name)}(?!\w)" for name in longest_first), re.IGNORECASE
-        )
+        self.any_mention = re.compile("|".join(_mention(name).pattern for name in longest_first), re.IGNORECASE)
         self.pair = [_pair(name) for name in names]
         self.numbered = numbered(names)
 
@@ -306,10 +305,8 @@ def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False, partial:
             return ParsedReply(
                 ok=False, error=f"ambiguous: no JSON decision and the text names several options ({listed})"
             )
-    keys = ", ".join(spec.names)
-    if objects:
-        return ParsedReply(ok=False, error=f"no JSON object with the keys {keys}")
-    return ParsedReply(ok=False, error=f"no JSON object with the keys {keys} and no decision in the text")
+    tail = "" if objects else " and no decision in the text"
+    return ParsedReply(ok=False, error=f"no JSON object with the keys {', '.join(spec.names)}{tail}")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -331,28 +328,21 @@ def _objects(text: str) -> Iterator[dict[str, Any]]:
             start = text.find("{", start + 1)
 
 
+_QUOTED_BRACES_RE = re.compile(r'"(?:\\.|[^"\\])*"|\'(?:\\.|[^\'\\])*\'|["\'{}]', re.S)  # a lone quote: unterminated
+_BRACES_RE = re.compile(r"[{}]")
+
+
 def _closing(text: str, start: int, quotes: bool) -> int | None:
-    """Index of the brace closing the one at ``start`` (skipping quoted strings when ``quotes``)."""
+    """Index of the brace closing the one at ``start`` (skipping quoted strings when ``quotes``; a string left open
+    runs to the end, so no brace closes)."""
     depth = 0
-    quote = None
-    escaped = False
-    for i in range(start, len(text)):
-        c = text[i]
-        if quote is not None:
-            if escaped:
-                escaped = False
-            elif c == "\\":
-                escaped = True
-            elif c == quote:
-                quote = None
-        elif quotes and c in "\"'":
-            quote = c
-        elif c == "{":
-            depth += 1
-        elif c == "}":
-            depth -= 1
-            if depth == 0:
-                return i
+    for match in (_QUOTED_BRACES_RE if quotes else _BRACES_RE).finditer(text, start):
+        token = match.group()
+        if token in ("'", '"'):
+            return None
+        depth += {"{": 1, "}": -1}.get(token, 0)
+        if depth == 0:
+            return match.start()
     return None
 
 
@@ -429,24 +419,20 @@ def _keyed(container: dict, spec: _Options) -> dict[int, Any] | None:
 def _number(value: Any) -> float | None:
     """A finite float from a number, boolean, numeric string, ``"true"``/``"false"`` or ``"yes"``/``"no"``."""
     if isinstance(value, bool):
-        return 1.0 if value else 0.0
-    if isinstance(value, (int, float)):
-        try:
-            number = float(value)
-        except OverflowError:
-            return None
-        return number if math.isfinite(number) else None
+        return float(value)
     if isinstance(value, str):
-        s = value.strip().strip("\"'").strip()
-        word = s.casefold()
-        if word in ("true", "yes"):
-            return 1.0
-        if word in ("false", "no"):
-            return 0.0
-        if _NUM_RE.fullmatch(s):
-            number = float(s)
-            return number if math.isfinite(number) else None
-    return None
+        value = value.strip().strip("\"'").strip()
+        if value.casefold() in _WORDS:
+            return _WORDS[value.casefold()]
+        if not _NUM_RE.fullmatch(value):
+            return None
+    elif not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:  # an integer too large for a float
+        return None
+    return number if math.isfinite(number) else None
 
 
 def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, fallback: bool) -> ParsedReply:
@@ -488,27 +474,20 @@ def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: st
     """A reply from a key that names the answer (``{"choice": "HR2"}``, ``{"order": [...]}``); None if none."""
     reason = _reason(container, parent)
     for key, value in container.items():
-        if not isinstance(key, str):
-            continue
-        nk = _norm(key)
+        nk = _norm(key) if isinstance(key, str) else None
         if kind == "order" and nk in _ORDER_KEYS:
             order = _sequence(value, spec)
-            if order is None:
-                return ParsedReply(
-                    ok=False, reason=reason, error=f"{key!r} is not an order of {', '.join(spec.names)}: {_clip(value)}"
-                )
-            return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, reason, False)
-        if nk in _CHOICE_KEYS and (kind == "choice" or spec.n == 2):
-            if isinstance(value, (dict, list)):
-                continue
+            if order is not None:
+                return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, reason, False)
+            problem = "is not an order of"
+        elif nk in _CHOICE_KEYS and (kind == "choice" or spec.n == 2) and not isinstance(value, (dict, list)):
             index = _option_index(value, spec)
-            if index is None:
-                return ParsedReply(
-                    ok=False,
-                    reason=reason,
-                    error=f"{key!r} does not name one of {', '.join(spec.names)}: {_clip(value)}",
-                )
-            return _result_from_choice(index, spec, kind, reason, False)
+            if index is not None:
+                return _result_from_choice(index, spec, kind, reason, False)
+            problem = "does not name one of"
+        else:
+            continue
+        return ParsedReply(ok=False, reason=reason, error=f"{key!r} {problem} {', '.join(spec.names)}: {_clip(value)}")
     return None
 
 

@@ -17,8 +17,8 @@ Proofs: ``proofs/calibration.md``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
 
@@ -65,12 +65,15 @@ class Found:
         The certificate at ε; when infeasible the floor (or +inf when nothing is certified).
     reason : str
     feasible : bool
+    unparsed : tuple or None
+        ``white_box`` with an unparsed decision: its label and the interval [min g, max g] of its utility.
     """
 
     epsilon: float
     bound: float
     reason: str
     feasible: bool = True
+    unparsed: tuple[Hashable, tuple[float, float]] | None = None
 
 
 def infeasible(bound: float, reason: str) -> Found:
@@ -385,8 +388,8 @@ def black_box_global(
 def white_box(
     common: Common,
     family: MechanismFamily,
-    kernel: Kernel,
-    utility: Utility,
+    kernel: Kernel | None,
+    utility: Utility | None,
     population: Population | None,
     context_mechanism: Mechanism | None,
     unparsed_decision: int | None = None,
@@ -399,16 +402,25 @@ def white_box(
     With ``unparsed_decision`` (an index of the kernel's decisions) the function of ε scanned and refined is the upper
     end of L (L̄) over every utility of that decision in [min g, max g], per kernel cell
     (:func:`fairaudit.metrics.utility_range.fairness_range`; ``proofs/unparsed.md`` §5); when the kernel puts no mass on
-    that decision the range is a point and the function is L (L̄) itself, as without it.
+    that decision the range is a point and the function is L (L̄) itself, as without it; ``Found.unparsed`` names it.
     """
     from fairaudit.metrics.utility_range import fairness_range
 
+    if kernel is None:
+        raise InputError("kernel", "the white_box method needs a decision model (a [model] in the spec, or kernel=)")
+    if utility is None:
+        raise InputError("utility", "the white_box method needs the utility g")
+    if unparsed_decision is not None and np.ndim(utility.values) != 1:
+        raise InputError(
+            "utility", "must depend on the decision only (g(u)) for unparsed_decision", np.shape(utility.values)
+        )
     target, kind = common.target, common.kind
     limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
     measure = local_fairness if kind == "local" else global_fairness
     name = "L" if kind == "local" else "L-bar"
 
     unparsed = None if unparsed_decision is None else _decision_index(kernel, unparsed_decision)
+    given = None if unparsed is None else (kernel.decisions[unparsed], (utility.lower, utility.gamma))
     if unparsed is not None and np.any(np.nan_to_num(kernel.probabilities[..., unparsed], nan=0.0) > 0):
         label = format_label(kernel.decisions[unparsed])
         name = f"upper end of {name} over every utility of {label!r} in [min g, max g]"
@@ -446,8 +458,10 @@ def white_box(
             why.append("the utility depends on the group")
         if kind == "global" and population is not None and not population.independence().independent:
             why.append("X and A are dependent in the population")
-        return _white_box_floor(target, limit, keep_grid(family), value, f0, name, why)
-    return _scan(target, limit, keep_grid(family), value, f0, name, monotone)
+        found = _white_box_floor(target, limit, keep_grid(family), value, f0, name, why)
+    else:
+        found = _scan(target, limit, keep_grid(family), value, f0, name, monotone)
+    return replace(found, unparsed=given)
 
 
 def _independent_and_whole(population: Population) -> bool:

@@ -20,7 +20,6 @@ import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -188,10 +187,8 @@ def _is_randomized_response(family: MechanismFamily, eps: float) -> RandomizedRe
     return m
 
 
-def _black_box_class(
-    common: Common, metric: npt.ArrayLike | None, population: Population | None
-) -> tuple[dict[str, Any], str, str]:
-    """The keywords of ``black_box_bound`` for the class of utilities, the class in words, and a note for the reason."""
+def _black_box_class(common: Common, metric: npt.ArrayLike | None) -> tuple[UtilityClass, str, str]:
+    """The class of utilities of ``black_box_bound``, the class in words, and a note for the reason."""
     gamma, lower, tau, lip = common.gamma, common.lower, common.tau, common.lipschitz
     utility_class = UtilityClass(
         lower=lower,
@@ -200,7 +197,6 @@ def _black_box_class(
         lipschitz=lip if lip > 0 else None,
         metric=metric if lip > 0 else None,
     )
-    kwargs: dict[str, Any] = {"utility_class": utility_class, "population": population}
     cls = (
         f"utilities in [{lower:g}, {gamma:g}]"
         + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
@@ -208,7 +204,7 @@ def _black_box_class(
     )
     vouched = not math.isnan(tau) and tau > lower
     note = "; tau is vouched for: it must hold behind the calibrated mechanism too" if vouched else ""
-    return kwargs, cls, note
+    return utility_class, cls, note
 
 
 def _rr_bound(common: Common, family: MechanismFamily, metric: npt.ArrayLike | None) -> Callable[[float], float] | None:
@@ -243,12 +239,12 @@ def black_box(
     """The largest ε whose exact worst case over every model of the class meets the target (on L)."""
     target, gamma, lower = common.target, common.gamma, common.lower
     tau, lip = common.tau, common.lipschitz
-    kwargs, cls, note = _black_box_class(common, metric, population)
+    utility_class, cls, note = _black_box_class(common, metric)
     bound = _rr_bound(common, family, metric)
     if bound is None:
 
         def bound(eps: float) -> float:
-            return black_box_bound(family(eps), **kwargs).value
+            return black_box_bound(family(eps), utility_class=utility_class, population=population).value
 
     top = bound(math.inf)
     if target >= top:

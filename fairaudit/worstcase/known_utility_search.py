@@ -52,45 +52,39 @@ def local_search(
     xs = np.flatnonzero(live)
     pairs = np.asarray(pairs).reshape(-1, 2)
     triples = np.column_stack([np.repeat(xs, len(pairs)), np.tile(pairs, (len(xs), 1))])  # (x, a, b), x-major
+    x, a, b = triples.T
     if problem.group_free:
         assert boxes is not None  # (computed for g free of the group)
         _, range_of, box_by_range = boxes
-        upper = box_by_range[range_of[triples[:, 0]], triples[:, 1], triples[:, 2]]
+        upper = box_by_range[range_of[x], a, b]
     else:
         upper = np.full(len(triples), np.inf)
     reach_hi, reach_lo = problem.reach
     closed = np.full(len(triples), np.inf)  # the closed-form bounds, each rounded up from E[g | x, a]'s bounds
     if tau is not None and tau > 0:
-        closed = up(reach_hi[triples[:, 0], triples[:, 1]] / tau)
-    coefficients = [[_Coefficients.of(space, x, b) for b in range(nA)] if live[x] else [] for x in range(g.shape[0])]
+        closed = up(reach_hi[x, a] / tau)
+    coefficients = [[_Coefficients.of(space, c, d) for d in range(nA)] if live[c] else [] for c in range(g.shape[0])]
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
-        x, a, b = triples[i]
-        return coefficients[x][a], coefficients[x][b]
+        return coefficients[x[i]][a[i]], coefficients[x[i]][b[i]]
 
     if not problem.group_free:
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            crude = np.where(
-                reach_lo[triples[:, 0], triples[:, 2]] > 0,
-                up(reach_hi[triples[:, 0], triples[:, 1]] / reach_lo[triples[:, 0], triples[:, 2]]),
-                np.inf,
-            )
-        closed = np.minimum(closed, crude)
+            closed = np.minimum(closed, np.where(reach_lo[x, b] > 0, up(reach_hi[x, a] / reach_lo[x, b]), np.inf))
     upper = np.minimum(upper, closed)
     inexact = max((c.roundings for row in coefficients for c in row), default=0)
     screens = np.full(len(triples), np.nan)  # each program's one-floor threshold θ, for the certificate
     relaxed = np.full(len(triples), np.inf)
     for context in xs:
         P = np.stack([c.value for c in coefficients[context]])
-        at = triples[:, 0] == context
-        a, b = triples[at, 1], triples[at, 2]
+        at = x == context
         if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
             # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
-            upper[at] = np.minimum(upper[at], _relaxation(P, space.lo, space.hi, floor, inexact)[a, b])
+            upper[at] = np.minimum(upper[at], _relaxation(P, space.lo, space.hi, floor, inexact)[a[at], b[at]])
         # every program's proof over the model's table, which verify checks: its one-floor threshold θ
         v, theta = _table_relaxation(*_as_table(P, space, g), tau, inexact + (space.lo is not None))
-        relaxed[at], screens[at] = v[a, b], theta[a, b]
-    screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
+        relaxed[at], screens[at] = v[a[at], b[at]], theta[a[at], b[at]]
+    screens = _screens(screens, relaxed, tau, reach_hi[x, a])
     if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
         upper = _lowered(upper, relaxed)
     return _searched(problem, "local", triples, space, pair, inexact, upper, closed, screens)

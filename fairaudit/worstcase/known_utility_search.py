@@ -87,7 +87,7 @@ def local_search(
     screens = _screens(screens, relaxed, tau, reach_hi[x, a])
     if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
         upper = _lowered(upper, relaxed)
-    return _searched(problem, "local", triples, space, pair, inexact, upper, closed, screens)
+    return _searched(_Search(problem, "local", triples, space, pair, inexact), upper, closed, screens)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -135,32 +135,34 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
         upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
-    return _searched(problem, "global", global_triples, space, pair, inexact, upper, closed, screens)
+    return _searched(_Search(problem, "global", global_triples, space, pair, inexact), upper, closed, screens)
 
 
-def _searched(
-    problem: ModelProblem,
-    kind: str,
-    triples: IntArray,
-    space: _ModelSpace,
-    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
-    inexact: int,
-    upper: FloatArray,
-    closed: FloatArray,
-    screens: FloatArray,
-) -> WorstCase:
-    """The search over the programs ``triples[i]`` = (x, a, b) (x = -1 for L̄), in decreasing order of ``upper``; each
-    solved by :func:`_solver`, exactly where its rounded form does not settle it, its proofs kept in :class:`_Evidence`
-    (none without floors: no ν to keep)."""
-    programs = ExactPrograms(problem, space.lo is not None, space.floors)
+@dataclass(frozen=True, eq=False)
+class _Search:
+    """One search's programs: ``triples[i]`` = (x, a, b) of program i (x = -1 for L̄) over ``space``, and ``pair(i)``,
+    the coefficients of its numerator and denominator, each entry computed with at most ``inexact`` roundings."""
+
+    problem: ModelProblem
+    kind: str
+    triples: IntArray
+    space: _ModelSpace
+    pair: Callable[[int], tuple[_Coefficients, _Coefficients]]
+    inexact: int
+
+
+def _searched(s: _Search, upper: FloatArray, closed: FloatArray, screens: FloatArray) -> WorstCase:
+    """The search over the programs ``s.triples[i]`` = (x, a, b), in decreasing order of ``upper``; each solved by
+    :func:`_solver`, exactly where its rounded form does not settle it, its proofs kept in :class:`_Evidence` (none
+    without floors: no ν to keep)."""
+    programs = ExactPrograms(s.problem, s.space.lo is not None, s.space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
-        x, a, b = (int(v) for v in triples[i])
-        return programs.solve(programs.local(x, a, b) if kind == "local" else programs.global_(a, b), rounded)
+        x, a, b = (int(v) for v in s.triples[i])
+        return programs.solve(programs.local(x, a, b) if s.kind == "local" else programs.global_(a, b), rounded)
 
-    evidence = _Evidence(problem, kind, triples, screens) if space.floors else None
-    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, kind, found, triples, space, evidence, pair)
+    evidence = _Evidence(s, screens) if s.space.floors else None
+    return _model_case(s, search(upper, _solver(s, exact, evidence, closed)), evidence)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -232,10 +234,7 @@ def _screens(theta: FloatArray, relaxed: FloatArray, tau: float | None, reach: F
 
 
 def _solver(
-    problem: ModelProblem,
-    space: _ModelSpace,
-    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
-    roundings: int,
+    s: _Search,
     exact: Callable[[int, FractionalResult], FractionalResult | None],
     evidence: _Evidence | None,
     closed: FloatArray,
@@ -264,6 +263,7 @@ def _solver(
     witness is then NaN where the coefficients are not exact (the solver's is on the outer ones). 18 groups behind a
     product of randomized responses, near ties at 1/τ: all but a few of about 250 programs so.
     """
+    problem, space, pair, roundings = s.problem, s.space, s.pair, s.inexact
 
     def num(i: int) -> FloatArray:
         return pair(i)[0].high
@@ -442,9 +442,9 @@ class _Evidence:
     its context's only behind the identity on the context (every context's floors bind its rows otherwise).
     None without floors (the bound without them is the value)."""
 
-    def __init__(self, problem: ModelProblem, kind: str, triples: IntArray, screens: FloatArray | None) -> None:
-        self.problem, self.kind, self.triples = problem, kind, triples
-        self.live = np.flatnonzero(problem.live)
+    def __init__(self, s: _Search, screens: FloatArray) -> None:
+        self.problem, self.kind, self.triples = s.problem, s.kind, s.triples
+        self.live = np.flatnonzero(s.problem.live)
         self.duals: list[ProgramDual] = []
         self.screens = screens  # each program's one-floor threshold θ (NaN: none)
 
@@ -470,8 +470,6 @@ class _Evidence:
     def all(self) -> tuple[ProgramDual, ...]:
         """The LP's multipliers kept, then every program's screen threshold θ (verify takes the least bound of the
         two: a value lowered to its closed-form bound, below what the LP's multipliers prove, rests on θ)."""
-        if self.screens is None:
-            return tuple(self.duals)
         local = self.kind == "local"
         screens = [
             self.problem.dual(x if local else None, a, b, theta=float(self.screens[i]))
@@ -481,29 +479,22 @@ class _Evidence:
         return (*self.duals, *screens)
 
 
-def _model_case(
-    problem: ModelProblem,
-    kind: str,
-    found: SearchResult,
-    triples: IntArray,
-    space: _ModelSpace,
-    evidence: _Evidence | None,
-    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
-) -> WorstCase:
-    """The worst case of a search over (context, pair) programs; ``triples[i]`` = (x, a, b) of program i. The
-    maximiser's point the certificate records (``witness_point``) is its basis's vertex on the inner program, exactly,
-    where that attains the witness (:func:`_exact_witness`); else the float maximiser, clipped."""
+def _model_case(s: _Search, found: SearchResult, evidence: _Evidence | None) -> WorstCase:
+    """The worst case of a search over (context, pair) programs. The maximiser's point the certificate records
+    (``witness_point``) is its basis's vertex on the inner program, exactly, where that attains the witness
+    (:func:`_exact_witness`); else the float maximiser, clipped."""
+    problem, kind, space = s.problem, s.kind, s.space
     r = found.result
     if found.index < 0:
         reason = found.reason or "the constraints are inconsistent"
         return WorstCase.unmet(kind, found, "no decision model meets E[g | x, a] >= tau in every cell: " + reason)
     assert r is not None  # a maximiser was found
-    x, a, b = triples[found.index]
+    x, a, b = s.triples[found.index]
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
     duals = () if evidence is None else evidence.all()
     point: npt.NDArray[Any] | None = None
     if r.argmax is not None and (bool(duals) or space.lo is None):  # (recorded over the model's table: always)
-        r, vertex = _exact_witness(r, *pair(found.index), space)
+        r, vertex = _exact_witness(r, *s.pair(found.index), space)
         argmax = np.asarray(r.argmax, dtype=float)
         n_x = len(problem.contexts)
         if not problem.same_x:  # the table over every released context

@@ -93,7 +93,6 @@ def local_search(
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
     """max L̄ by the search over pair programs (E[g | a] = Σ_x P(x | a) E[g | x, a] is linear in the kernel too)."""
     g, live, tau, floor = problem.g, problem.live, problem.tau, problem.floor
-    nA = g.shape[1]
     p_context_given_group = np.nan_to_num(problem.population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
     space = _problem_space(problem, MA)
 
@@ -105,9 +104,8 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
 
     # the groups of the pairs (L-bar compares the groups with P(A = a) > 0 only: the caller's pairs), in order
     present = np.unique(pairs)
-    position = np.zeros(nA, dtype=np.intp)
-    position[present] = np.arange(present.size)
-    coefficients = [coef_global(int(a)) for a in present]
+    a, b = np.searchsorted(present, pairs).T  # (each pair's rows of P: its groups' places among them)
+    coefficients = [coef_global(int(c)) for c in present]
     closed = np.full(len(pairs), np.inf)
     if tau is not None and tau > 0:
         # E[g | a] ≤ Σ_x P(x | a) E[g | x, a] ≤ the largest of its terms, over E[g | a'] ≥ τ (E[g | x, a] at most
@@ -120,11 +118,10 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     upper = closed.copy()
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
-        return coefficients[position[pairs[i, 0]]], coefficients[position[pairs[i, 1]]]
+        return coefficients[a[i]], coefficients[b[i]]
 
     inexact = max(c.roundings for c in coefficients)
     P = np.stack([c.value for c in coefficients])
-    a, b = position[pairs[:, 0]], position[pairs[:, 1]]  # (each pair's rows of P)
     if space.lo is not None and space.hi is not None and problem.method != "lp":
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
         upper = np.minimum(upper, v[a, b])
@@ -172,11 +169,8 @@ def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundi
     exact ratio is at most (1 + γ)/(1 − γ) ≤ 1 + 3γ times the computed one, and a point with P[b]·h ≥ τ has
     P̂[b]·h ≥ (1 − γ)τ, the floor the relaxation keeps.
     """
-    if floor is None:
-        return _widened(pairwise_box(P, lo, hi, None)[0], roundings)
-    relaxed = pairwise_box(P, lo, hi, _kept_floor(floor, roundings))[1]
-    assert relaxed is not None  # (a floor was given)
-    return _widened(relaxed, roundings)
+    box, relaxed = pairwise_box(P, lo, hi, None if floor is None else _kept_floor(floor, roundings))
+    return _widened(box if relaxed is None else relaxed, roundings)
 
 
 def _kept_floor(floor: float, roundings: int) -> float:

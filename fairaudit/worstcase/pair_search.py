@@ -150,8 +150,7 @@ def relaxed_first(
             v, k, frac, order = floor_max_many(p, q, lower, upper, floor)
         if not np.isnan(v):
             h = box_point(lower, upper, order, int(k), float(frac))
-            free = (p == 0) & (q == 0)  # cells outside the objective: the top of the box helps every τ row
-            h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
+            h[(p == 0) & (q == 0)] = upper  # cells outside the objective: the top of the box helps every τ row
             if rows is None or floor is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
                 status = "unbounded" if math.isinf(v) else "optimal"
                 constraints = [] if rows is None or floor is None else [(-rows, -floor * np.ones(len(rows)), "le")]

@@ -92,8 +92,7 @@ def randomized_response_cases(
         w = rr_box(rr, lo, hi, floor)
         kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, hot_hi[0], hot_lo[0])
         case = _rr_case(problem, "global", w, None, kern)
-        a, b = (case.group, case.other_group)
-        pair = (problem.groups.index(a), problem.groups.index(b))
+        pair = (problem.groups.index(case.group), problem.groups.index(case.other_group))
         h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor, *pair) if same_x else None
         point = None if h is None else np.array([h] * len(problem.contexts), dtype=object)
         theta = rr_theta(rr, lo, hi, floor)  # (the one-floor threshold of the pair's program, for the certificate)
@@ -172,12 +171,9 @@ def _rr_kernel(
     high, low = np.broadcast_to(high, (nXr, nU)), np.broadcast_to(low, (nXr, nU))
     h = w.vector(nAr)
     frac = np.clip((h - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones(nAr)
-    table = np.zeros((nXr, nAr, nU))
     if w.prefix and x is None:
-        top = w.released(nAr, hi)
-        table[:] = low[:, None, :]
-        table[:, top, :] = high[:, None, :]
-        return problem.kernel(table, exact=True)
+        return _prefix_kernel(problem, w.released(nAr, hi), high, low)
+    table = np.zeros((nXr, nAr, nU))
     rows = np.arange(nXr) if x is None else np.array([x])
     table[:] = high[:, None, :]
     table[rows] = frac[None, :, None] * high[rows, None, :] + (1 - frac)[None, :, None] * low[rows, None, :]
@@ -281,7 +277,13 @@ def _threshold_kernel(
     """The threshold kernel of the pair (a, b) over the box [lo, hi]: the decisions ``high`` on the released groups of
     its prefix, ``low`` on the others (one-hot rows, per released context or one row for all of them)."""
     _, k, order = threshold_max_many(MA[a], MA[b], lo, hi)
+    return _prefix_kernel(problem, order[: int(k)], high, low)
+
+
+def _prefix_kernel(problem: ModelProblem, top: IntArray, high: FloatArray, low: FloatArray) -> Kernel:
+    """The decisions ``high`` on the released groups ``top``, ``low`` on the others (one-hot rows, per released context
+    or one row for all of them): a threshold kernel, exact."""
     shape = (problem.n_released_contexts, problem.g.shape[2])
     table = np.repeat(np.broadcast_to(low, shape)[:, None, :], problem.n_released_groups, axis=1)
-    table[:, order[: int(k)], :] = np.broadcast_to(high, shape)[:, None, :]
+    table[:, top, :] = np.broadcast_to(high, shape)[:, None, :]
     return problem.kernel(table, exact=True)

@@ -542,13 +542,9 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
         )
     assert r is not None  # a maximising pair was found
     a, b = (int(v) for v in pairs[found.index])
-    if r.argmax is None:
-        h = np.full(m if not lip_on else (n, m), math.nan)
-        top = np.zeros(0, dtype=np.intp)
-    else:
-        h = r.argmax if not lip_on else r.argmax.reshape(n, m)
-        h = np.clip(h, lower, gamma)
-        top = np.flatnonzero((h if not lip_on else h[a]) >= gamma - 1e-9 * max(1.0, gamma))
+    shape = (n, m) if lip_on else (m,)
+    h = np.full(shape, math.nan) if r.argmax is None else np.clip(r.argmax.reshape(shape), lower, gamma)
+    top = np.flatnonzero((h[a] if lip_on else h) >= gamma - 1e-9 * max(1.0, gamma))  # (none where h is NaN)
     method = "lp" if found.solved else "threshold"
     return problem.certificate(
         r.value, (a, b), top, h, method, r.status, r.solver_status, r.reason, found.solved, result=r

@@ -99,8 +99,7 @@ def exact_result(
 
 def _rationals(values: npt.ArrayLike) -> ObjectArray:
     """An array of floats as exact Fractions (an object array of the same shape)."""
-    a = np.asarray(values, dtype=float)
-    return np.array([Fraction(float(v)) for v in a.ravel()], dtype=object).reshape(a.shape)
+    return np.vectorize(Fraction, otypes=[object])(np.asarray(values, dtype=float))
 
 
 def _rows(mechanism: Mechanism, end: int) -> ObjectArray | None:

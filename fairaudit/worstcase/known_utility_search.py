@@ -87,7 +87,7 @@ def local_search(
     screens = _screens(screens, relaxed, tau, reach_hi[x, a])
     if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
         upper = _lowered(upper, relaxed)
-    return _searched(_Search(problem, "local", triples, space, pair, inexact), upper, closed, screens)
+    return _searched(_Batch(problem, "local", triples, space, pair, inexact), upper, closed, screens)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -132,12 +132,12 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
         upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
-    return _searched(_Search(problem, "global", global_triples, space, pair, inexact), upper, closed, screens)
+    return _searched(_Batch(problem, "global", global_triples, space, pair, inexact), upper, closed, screens)
 
 
 @dataclass(frozen=True, eq=False)
-class _Search:
-    """One search's programs: ``triples[i]`` = (x, a, b) of program i (x = -1 for L̄) over ``space``, and ``pair(i)``,
+class _Batch:
+    """The programs of one search: ``triples[i]`` = (x, a, b) of program i (x = -1 for L̄) over ``space``, and ``pair(i)``,
     the coefficients of its numerator and denominator, each entry computed with at most ``inexact`` roundings."""
 
     problem: ModelProblem
@@ -148,18 +148,19 @@ class _Search:
     inexact: int
 
 
-def _searched(s: _Search, upper: FloatArray, closed: FloatArray, screens: FloatArray) -> WorstCase:
-    """The search over the programs ``s.triples[i]`` = (x, a, b), in decreasing order of ``upper``; each solved by
+def _searched(batch: _Batch, upper: FloatArray, closed: FloatArray, screens: FloatArray) -> WorstCase:
+    """The search over the programs ``batch.triples[i]`` = (x, a, b), in decreasing order of ``upper``; each solved by
     :func:`_solver`, exactly where its rounded form does not settle it, its proofs kept in :class:`_Evidence` (none
     without floors: no ν to keep)."""
-    programs = ExactPrograms(s.problem, s.space.lo is not None, s.space.floors)
+    exact_programs = ExactPrograms(batch.problem, batch.space.lo is not None, batch.space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
-        x, a, b = (int(v) for v in s.triples[i])
-        return programs.solve(programs.local(x, a, b) if s.kind == "local" else programs.global_(a, b), rounded)
+        x, a, b = (int(v) for v in batch.triples[i])
+        data = exact_programs.local(x, a, b) if batch.kind == "local" else exact_programs.global_(a, b)
+        return exact_programs.solve(data, rounded)
 
-    evidence = _Evidence(s, screens) if s.space.floors else None
-    return _model_case(s, search(upper, _solver(s, exact, evidence, closed)), evidence)
+    evidence = _Evidence(batch, screens) if batch.space.floors else None
+    return _model_case(batch, search(upper, _solver(batch, exact, evidence, closed)), evidence)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -228,7 +229,7 @@ def _screens(theta: FloatArray, relaxed: FloatArray, tau: float | None, reach: F
 
 
 def _solver(
-    s: _Search,
+    batch: _Batch,
     exact: Callable[[int, FractionalResult], FractionalResult | None],
     evidence: _Evidence | None,
     closed: FloatArray,
@@ -257,7 +258,7 @@ def _solver(
     witness is then NaN where the coefficients are not exact (the solver's is on the outer ones). 18 groups behind a
     product of randomized responses, near ties at 1/τ: all but a few of about 250 programs so.
     """
-    problem, space, pair, roundings = s.problem, s.space, s.pair, s.inexact
+    problem, space, pair, roundings = batch.problem, batch.space, batch.pair, batch.inexact
 
     def num(i: int) -> FloatArray:
         return pair(i)[0].high
@@ -436,9 +437,9 @@ class _Evidence:
     its context's only behind the identity on the context (every context's floors bind its rows otherwise).
     None without floors (the bound without them is the value)."""
 
-    def __init__(self, s: _Search, screens: FloatArray) -> None:
-        self.problem, self.kind, self.triples = s.problem, s.kind, s.triples
-        self.live = np.flatnonzero(s.problem.live)
+    def __init__(self, batch: _Batch, screens: FloatArray) -> None:
+        self.problem, self.kind, self.triples = batch.problem, batch.kind, batch.triples
+        self.live = np.flatnonzero(batch.problem.live)
         self.duals: list[ProgramDual] = []
         self.screens = screens  # each program's one-floor threshold θ (NaN: none)
 
@@ -473,22 +474,22 @@ class _Evidence:
         return (*self.duals, *screens)
 
 
-def _model_case(s: _Search, found: SearchResult, evidence: _Evidence | None) -> WorstCase:
+def _model_case(batch: _Batch, found: SearchResult, evidence: _Evidence | None) -> WorstCase:
     """The worst case of a search over (context, pair) programs. The maximiser's point the certificate records
     (``witness_point``) is its basis's vertex on the inner program, exactly, where that attains the witness
     (:func:`_exact_witness`); else the float maximiser, clipped."""
-    problem, kind, space = s.problem, s.kind, s.space
+    problem, kind, space = batch.problem, batch.kind, batch.space
     r = found.result
     if found.index < 0:
         reason = found.reason or "the constraints are inconsistent"
         return WorstCase.unmet(kind, found, "no decision model meets E[g | x, a] >= tau in every cell: " + reason)
     assert r is not None  # a maximiser was found
-    x, a, b = s.triples[found.index]
+    x, a, b = batch.triples[found.index]
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
     duals = () if evidence is None else evidence.all()
     point: npt.NDArray[Any] | None = None
     if r.argmax is not None and (bool(duals) or space.lo is None):  # (recorded over the model's table: always)
-        r, vertex = _exact_witness(r, *s.pair(found.index), space)
+        r, vertex = _exact_witness(r, *batch.pair(found.index), space)
         argmax = np.asarray(r.argmax, dtype=float)
         n_x = len(problem.contexts)
         if not problem.same_x:  # the table over every released context

@@ -169,21 +169,20 @@ class ExactPrograms:
         n = contexts * nAr * (1 if u_only else nU)
         rows = (0 if u_only else 2 * contexts * nAr) + (floor_rows if floors else 0)
         self._size = (n, rows, nXr if problem.same_x else 1)
-        self._ends: list[_End] | None = None
 
-    def _built(self) -> list[_End] | None:
-        if self._ends is None:
-            problem = self._problem
-            two = any(isinstance(m, RandomizedResponse) and not m.is_identity
-                      for m in (problem.mechanism, problem.context_mechanism))  # fmt: skip
-            ends = []
-            for end in (0, 1) if two else (1,):
-                MA, MX = _rows(problem.mechanism, end), _rows(problem.context_mechanism, end)
-                if MA is None or MX is None:
-                    return None
-                ends.append(self._end(MA, MX))
-            self._ends = ends
-        return self._ends
+    @functools.cached_property
+    def _ends(self) -> list[_End] | None:
+        """The programs at each end of e^ε (built at the first exact solve); None where an end has no rows."""
+        problem = self._problem
+        two = any(isinstance(m, RandomizedResponse) and not m.is_identity
+                  for m in (problem.mechanism, problem.context_mechanism))  # fmt: skip
+        ends = []
+        for end in (0, 1) if two else (1,):
+            MA, MX = _rows(problem.mechanism, end), _rows(problem.context_mechanism, end)
+            if MA is None or MX is None:
+                return None
+            ends.append(self._end(MA, MX))
+        return ends
 
     def _end(self, MA: ObjectArray, MX: ObjectArray) -> _End:
         problem = self._problem
@@ -260,7 +259,7 @@ class ExactPrograms:
         limit = CROSSOVER_SIZE  # (read at each call: the tests shrink it)
         if self._size[0] > limit[0] or self._size[1] > limit[1] or self._size[2] > MAX_BLOCKS:
             return None
-        ends = self._built()
+        ends = self._ends
         if ends is None:
             return None
         status = f"{rounded.solver_status}; {EXACT_CROSSOVER} (exact: {WHY})"

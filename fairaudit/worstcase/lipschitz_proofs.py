@@ -209,16 +209,14 @@ def _symmetric(
         for g in ("a", "a'"):
             pairs += [(f"{g}.a", "c.a"), (f"{g}.a'", "c.a'"), (f"{g}.o", "c.c"), (f"{g}.o", "c.o")]
         pairs.append(("c.c", "c.o"))
-        for one, two in pairs:
+        for (one, two), sign in itertools.product(pairs, (1, -1)):
             if one in present and two in present:
-                for sign in (1, -1):
-                    a_ub.append(form({one: Fraction(sign), two: Fraction(-sign)}))
-                    b_ub.append(limit)
+                a_ub.append(form({one: Fraction(sign), two: Fraction(-sign)}))
+                b_ub.append(limit)
     if floor is not None:
         floors = [top, bottom]
         if "c.c" in present:
             floors.append(form({"c.a": q, "c.a'": q, "c.c": p, "c.o": (others - 1) * q}))
-        for row in floors:
-            a_ub.append([-v for v in row])
-            b_ub.append(-floor)
+        a_ub += [[-v for v in row] for row in floors]
+        b_ub += [-floor] * len(floors)
     return a_ub, b_ub, {(0, 1): (top, bottom)}

@@ -198,21 +198,20 @@ class ExactPrograms:
             lower, upper = [min(row)] * width, [max(row)] * width
         else:
             lower, upper = [Fraction(0)] * width, [Fraction(1)] * width
+        sums: list[list[Fraction]] = []  # Σ_u K[x̃, ã, u] = 1 as two rows a cell, the same in every block
+        for c in range(0 if self._u_only else width // nU):
+            ones = [Fraction(int(c * nU <= j < (c + 1) * nU)) for j in range(width)]
+            sums += [ones, [-v for v in ones]]
         blocks = []
         for i, released in enumerate(groups):
-            a_ub: list[list[Fraction]] = []
-            b_ub: list[Fraction] = []
-            for c in range(0 if self._u_only else width // nU):  # Σ_u K[x̃, ã, u] = 1
-                ones = [Fraction(int(c * nU <= j < (c + 1) * nU)) for j in range(width)]
-                a_ub += [ones, [-v for v in ones]]
-                b_ub += [Fraction(1), Fraction(-1)]
             # −E[g | x, b] ≤ −τ for the live contexts whose rows the block holds (all of them in one block)
             xs = [x for x in (released if problem.same_x else range(g.shape[0])) if live[x]] if self._floors else []
-            for x, b in itertools.product(xs, range(nA)):
-                full = _coefficients(MA, MX, g, self._u_only, x, b)
-                a_ub.append([-v for v in full[i * width : (i + 1) * width]])
-                b_ub.append(-tau)
-            blocks.append(Polytope(lower, upper, a_ub, b_ub, width))
+            floors = [
+                [-v for v in _coefficients(MA, MX, g, self._u_only, x, b)[i * width : (i + 1) * width]]
+                for x, b in itertools.product(xs, range(nA))
+            ]
+            b_ub = [Fraction(1), Fraction(-1)] * (len(sums) // 2) + [-tau] * len(floors)
+            blocks.append(Polytope(lower, upper, sums + floors, b_ub, width))
         return _End(MA, MX, g, self._u_only, blocks, width)
 
     def _floor_multipliers(self, end: _End, y: tuple[Fraction, ...]) -> tuple[Fraction, ...]:

@@ -249,18 +249,15 @@ def _utility_case(
         return dataclasses.replace(trivial, value=math.nan, ratio=math.nan)
     if not problem.binding and problem.method != "lp":
         # per leading index, the pairs that can be the largest (box_pairs: exact, O(nA·nU) memory); the first
-        # maximiser in (x, a, b) order, as over the whole table
-        best: tuple[float, int, int, int] | None = None
-        for x in range(P.shape[0]):
+        # maximiser in (x, a, b) order, as over the whole table (max keeps the first of equal values)
+        def best(x: int) -> tuple[float, int, int, int]:
             at = np.flatnonzero(rows[x])
-            if at.size < 2:
-                continue
             found = box_pairs(P[x, at], lower, gamma)
             i = int(np.argmax(found.box))
-            if best is None or found.box[i] > best[0]:
-                best = (float(found.box[i]), x, int(at[found.a[i]]), int(at[found.b[i]]))
-        assert best is not None  # (some leading index has two rows)
-        ratio, x, a, b = best
+            return float(found.box[i]), x, int(at[found.a[i]]), int(at[found.b[i]])
+
+        leading = (best(x) for x in range(P.shape[0]) if np.count_nonzero(rows[x]) >= 2)  # (some has two rows)
+        ratio, x, a, b = max(leading, key=lambda found: found[0])
         ratio = float(widen_up(ratio, widen)) if widen else ratio
         _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
         h = box_point(lower, gamma, order, int(k))

@@ -318,8 +318,7 @@ class _Coefficients:
     @classmethod
     def of(cls, space: _ModelSpace, x: int, b: int) -> _Coefficients:
         value, roundings, nonzero = space.cells(x, b)
-        low, high = product_ends(value, roundings, nonzero)
-        return cls(value, low, high, int(roundings.max(initial=0)))
+        return cls(value, *product_ends(value, roundings, nonzero), int(roundings.max(initial=0)))
 
     @classmethod
     def weighted(cls, space: _ModelSpace, xs: IntArray, b: int, weights: FloatArray, single: bool) -> _Coefficients:
@@ -331,8 +330,7 @@ class _Coefficients:
         if not single:
             roundings = roundings + 2 * space.n_contexts + 1
         nonzero = functools.reduce(operator.or_, [nz for _, _, nz in parts])
-        low, high = product_ends(value, roundings, nonzero)
-        return cls(value, low, high, int(roundings.max(initial=0)))
+        return cls(value, *product_ends(value, roundings, nonzero), int(roundings.max(initial=0)))
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

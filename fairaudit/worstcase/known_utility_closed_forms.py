@@ -72,7 +72,6 @@ def randomized_response_cases(
     decision_only, same_x, independent = problem.decision_only, problem.same_x, problem.independent
     nU = g.shape[2]
     lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)  # the range of g(., x) per context
-    hot_hi, hot_lo = onehot(g[:, 0, :].argmax(-1), nU), onehot(g[:, 0, :].argmin(-1), nU)  # per context
     over = np.flatnonzero(live & (floor > hi_x))
     if binding and over.size and (decision_only or same_x):
         local = _rr_infeasible(problem, "local", int(over[0]), hi_x)
@@ -80,7 +79,7 @@ def randomized_response_cases(
         return local, global_
     if binding and not (decision_only or same_x):
         return None, None
-    local = _rr_local(problem, rr, lo_x, hi_x, hot_hi, hot_lo, floor)
+    local = _rr_local(problem, rr, lo_x, hi_x, floor)
     # global under X independent of A (Proposition 10 (b); with τ and g(u): H-bar meets every floor)
     if independent and not binding:
         weighted_g, lo_g, hi_g = weighted_box(problem)
@@ -90,7 +89,8 @@ def randomized_response_cases(
     if independent and decision_only:
         lo, hi = float(lo_x[0]), float(hi_x[0])
         w = rr_box(rr, lo, hi, floor)
-        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, hot_hi[0], hot_lo[0])
+        high, low = onehot(g[0, 0].argmax(), nU), onehot(g[0, 0].argmin(), nU)
+        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, high, low)
         case = _rr_case(problem, "global", w, None, kern)
         pair = (problem.groups.index(case.group), problem.groups.index(case.other_group))
         h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor, *pair) if same_x else None
@@ -102,20 +102,15 @@ def randomized_response_cases(
 
 
 def _rr_local(
-    problem: ModelProblem,
-    rr: RandomizedResponseParameters,
-    lo_x: FloatArray,
-    hi_x: FloatArray,
-    hot_hi: FloatArray,
-    hot_lo: FloatArray,
-    floor: float,
+    problem: ModelProblem, rr: RandomizedResponseParameters, lo_x: FloatArray, hi_x: FloatArray, floor: float
 ) -> WorstCase:
     """The local maximum behind k-ary RR: the best context's box (proofs/black_box.md §6, Proposition 10 (a)).
 
-    With a binding τ, §3 Proposition 3b per context, on the floor :func:`_floor_behind` gives. ``hot_hi``/``hot_lo``:
-    the one-hot rows of the decisions of largest and smallest g per context.
+    With a binding τ, §3 Proposition 3b per context, on the floor :func:`_floor_behind` gives. ``lo_x``/``hi_x``: the
+    range of g per context.
     """
-    live = problem.live
+    live, g = problem.live, problem.g[:, 0, :]
+    hot_hi, hot_lo = onehot(g.argmax(-1), g.shape[1]), onehot(g.argmin(-1), g.shape[1])  # per context
     ranges, range_of = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
     range_of = range_of.ravel()
     best_x, best_w = -1, None

@@ -451,9 +451,7 @@ Parts = list[tuple[IntArray, IntArray, FloatArray, FloatArray | None]]
 
 def _finish(n: int, parts: Parts, box_fill: float, relaxed_fill: float) -> BoxPairs:
     """Merge the exactly solved pairs (duplicates dropped, row-major)."""
-    a = np.concatenate([x[0] for x in parts]).astype(np.intp)
-    b = np.concatenate([x[1] for x in parts]).astype(np.intp)
-    flat, first = np.unique(a * n + b, return_index=True)
+    flat, first = np.unique(np.concatenate([x[0].astype(np.intp) * n + x[1] for x in parts]), return_index=True)
     box = np.concatenate([x[2] for x in parts])[first]
     rel = None if parts[0][3] is None else np.concatenate([x[3] for x in parts if x[3] is not None])[first]
     a, b = np.divmod(flat, n)

@@ -113,14 +113,12 @@ def _rr_local(
     hot_hi, hot_lo = onehot(g.argmax(-1), g.shape[1]), onehot(g.argmin(-1), g.shape[1])  # per context
     ranges, range_of = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
     range_of = range_of.ravel()
-    best_x, best_w = -1, None
+    candidates = []  # (some context is live)
     for index, (lo, hi) in enumerate(ranges.tolist()):
         at = np.flatnonzero(live & (range_of == index))
         if at.size:
-            w = rr_box(rr, lo, hi, floor)
-            if best_w is None or w.value > best_w.value or (w.value == best_w.value and at[0] < best_x):
-                best_x, best_w = int(at[0]), w
-    assert best_w is not None  # (some context is live)
+            candidates.append((rr_box(rr, lo, hi, floor), int(at[0])))
+    best_w, best_x = max(candidates, key=lambda c: (c[0].value, -c[1]))  # (of equal values, the first context)
     lo, hi = float(lo_x[best_x]), float(hi_x[best_x])
     if not problem.binding:  # the threshold kernel of the maximising context, in every released context
         kern = _rr_kernel(problem, best_w, lo, hi, None, hot_hi[best_x], hot_lo[best_x])

@@ -289,9 +289,9 @@ class _ClassProblem:
         top: IntArray | Sequence[int],
         utility_by_release: FloatArray,
         method: str = "threshold",
-        status: str = "optimal",
+        status: str | None = None,
         solver_status: str = "closed form",
-        reason: str = "",
+        reason: str | None = None,
         programs_solved: int = 0,
         *,
         value: float | None = None,
@@ -301,11 +301,17 @@ class _ClassProblem:
         values (indices ``top``) where h is γ; ``value`` (nats) defaults to the log of ``ratio`` rounded up (NaN stays
         NaN).
 
-        The defaults are a closed form's: no program solved. ``result``: the maximiser's program, whose certification,
-        witness and gap the certificate repeats.
+        The defaults are a closed form's: no program solved, "unbounded" (with why) where ``value`` is +inf, else
+        "optimal". ``result``: the maximiser's program, whose certification, witness and gap the certificate repeats.
         """
         if value is None:
             value = nats_up(ratio)
+        if status is None:
+            status = "unbounded" if value == math.inf else "optimal"
+        if reason is None:
+            reason = (
+                "some released value is possible for one group and impossible for another" if value == math.inf else ""
+            )
         inputs, outputs = self.mechanism.inputs, self.mechanism.outputs
         return BlackBoxCertificate(
             value=value,
@@ -342,16 +348,13 @@ def _randomized_response_certificate(
     n, m = len(problem.mechanism.inputs), len(problem.mechanism.outputs)
     if not problem.lipschitz_on:
         w = rr_box(rr, lower, gamma, floor)
-        inf = math.isinf(w.value)
         return problem.certificate(
             w.ratio,
             (0, 1),
             w.released(n, gamma),
             w.vector(n),
-            status="unbounded" if inf else "optimal",
             solver_status="threshold" if w.prefix else "closed form",
-            reason="some released value is possible for one group and impossible for another" if inf else "",
-            value=w.value if inf else rr_class_value(rr, lower, gamma, floor, 0.0, 1.0),  # rounded up
+            value=w.value if math.isinf(w.value) else rr_class_value(rr, lower, gamma, floor, 0.0, 1.0),  # rounded up
         )
     off_diagonal = None if d is None else d[~np.eye(n, dtype=bool)]
     discrete = off_diagonal is None or bool(np.all(off_diagonal == off_diagonal[0]))
@@ -369,7 +372,6 @@ def _randomized_response_certificate(
             (a, b),
             (),
             np.full((n, m), math.nan),
-            status="unbounded",
             reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
             "g = 0 for one group and L_A d(a, a') for the other)",
         )
@@ -398,10 +400,7 @@ def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPair
     top = order_ab[: int(k_ab)]
     h = np.full(M.shape[1], lower)
     h[top] = gamma
-    ratio = float(found.box[i])
-    status = "unbounded" if math.isinf(ratio) else "optimal"
-    reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
-    return problem.certificate(ratio, (a, b), top, h, status=status, solver_status="threshold", reason=reason)
+    return problem.certificate(float(found.box[i]), (a, b), top, h, solver_status="threshold")
 
 
 def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
@@ -543,13 +542,9 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
         )
     assert r is not None  # a maximising pair was found
     a, b = (int(v) for v in pairs[found.index])
-    if r.argmax is None:
-        h = np.full(m if not lip_on else (n, m), math.nan)
-        top = np.zeros(0, dtype=np.intp)
-    else:
-        h = r.argmax if not lip_on else r.argmax.reshape(n, m)
-        h = np.clip(h, lower, gamma)
-        top = np.flatnonzero((h if not lip_on else h[a]) >= gamma - 1e-9 * max(1.0, gamma))
+    shape = (n, m) if lip_on else (m,)
+    h = np.full(shape, math.nan) if r.argmax is None else np.clip(r.argmax.reshape(shape), lower, gamma)
+    top = np.flatnonzero((h[a] if lip_on else h) >= gamma - 1e-9 * max(1.0, gamma))  # (none where h is NaN)
     method = "lp" if found.solved else "threshold"
     return problem.certificate(
         r.value, (a, b), top, h, method, r.status, r.solver_status, r.reason, found.solved, result=r

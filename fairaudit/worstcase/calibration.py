@@ -260,28 +260,22 @@ def _result(
     method: str,
     found: Found,
     family: MechanismFamily,
-    unparsed: tuple[Hashable, tuple[float, float]] | None = None,
-    target_impact_ratio: float | None = None,
+    target_impact_ratio: float | None,
 ) -> Calibration:
     """The :class:`Calibration` of what ``method`` found, with the family's member and keep probability at ε.
 
-    ``unparsed``: the unparsed decision's label and the interval of its utility, when calibrated on the upper end;
     ``target_impact_ratio``: the target as given, when given as a worst impact ratio.
     """
-    mech: Mechanism | None
-    if found.feasible:
-        epsilon, keep, mech = found.epsilon, family.keep_probability(found.epsilon), family(found.epsilon)
-    else:
-        epsilon, keep, mech = math.nan, math.nan, None
+    feasible, epsilon, unparsed = found.feasible, found.epsilon, found.unparsed
     return Calibration(
-        epsilon=float(epsilon),
-        keep_probability=float(keep),
+        epsilon=float(epsilon) if feasible else math.nan,
+        keep_probability=float(family.keep_probability(epsilon)) if feasible else math.nan,
         method=method,
         bound=float(found.bound),
-        feasible=bool(found.feasible),
+        feasible=bool(feasible),
         reason=found.reason,
         family=family.name,
-        mechanism=mech,
+        mechanism=family(epsilon) if feasible else None,
         unparsed_decision=None if unparsed is None else unparsed[0],
         unparsed_range=None if unparsed is None else unparsed[1],
         target_impact_ratio=target_impact_ratio,
@@ -334,31 +328,6 @@ def _arguments(
         method = "white_box" if kernel is not None else ("tight" if delta > 0 else "black_box")
     _check_method(method, common, utility)
     return common, method, fam, uc.metric
-
-
-def _white_box(
-    common: Common,
-    family: MechanismFamily,
-    kernel: Kernel | None,
-    utility: Utility | None,
-    population: Population | None,
-    context_mechanism: Mechanism | None,
-    unparsed_decision: int | None,
-) -> tuple[Found, tuple[Hashable, tuple[float, float]] | None]:
-    """The ``white_box`` method: what it finds, and the unparsed decision's label and utility range when given."""
-    if kernel is None:
-        raise InputError("kernel", "the white_box method needs a decision model (a [model] in the spec, or kernel=)")
-    if utility is None:
-        raise InputError("utility", "the white_box method needs the utility g")
-    if unparsed_decision is not None and np.ndim(utility.values) != 1:
-        raise InputError(
-            "utility", "must depend on the decision only (g(u)) for unparsed_decision", np.shape(utility.values)
-        )
-    found = white_box(common, family, kernel, utility, population, context_mechanism, unparsed_decision)
-    if unparsed_decision is None:
-        return found, None
-    # (a valid index: white_box checked it)
-    return found, (kernel.decisions[unparsed_decision], (utility.lower, utility.gamma))
 
 
 def _certificate(
@@ -515,9 +484,8 @@ def calibrate(
     common, method, fam, metric = _arguments(
         target, target_impact_ratio, kind, method, family, utility_class, delta, kernel, utility, population
     )
-    unparsed = None
     if method == "white_box":
-        found, unparsed = _white_box(common, fam, kernel, utility, population, context_mechanism, unparsed_decision)
+        found = white_box(common, fam, kernel, utility, population, context_mechanism, unparsed_decision)
     elif unparsed_decision is not None:
         raise InputError(
             "unparsed_decision", f"is for the white_box method (a kernel), not {method}", unparsed_decision
@@ -525,7 +493,7 @@ def calibrate(
     else:
         found = _certificate(common, method, fam, metric, utility, population, context_mechanism)
     ratio = None if target_impact_ratio is None else float(target_impact_ratio)
-    return _result(common, method, found, fam, unparsed, ratio)
+    return _result(common, method, found, fam, ratio)
 
 
 def calibrate_randomized_response(

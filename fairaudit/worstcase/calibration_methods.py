@@ -17,10 +17,9 @@ Proofs: ``proofs/calibration.md``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -65,12 +64,15 @@ class Found:
         The certificate at ε; when infeasible the floor (or +inf when nothing is certified).
     reason : str
     feasible : bool
+    unparsed : tuple or None
+        ``white_box`` with an unparsed decision: its label and the interval [min g, max g] of its utility.
     """
 
     epsilon: float
     bound: float
     reason: str
     feasible: bool = True
+    unparsed: tuple[Hashable, tuple[float, float]] | None = None
 
 
 def infeasible(bound: float, reason: str) -> Found:
@@ -185,10 +187,8 @@ def _is_randomized_response(family: MechanismFamily, eps: float) -> RandomizedRe
     return m
 
 
-def _black_box_class(
-    common: Common, metric: npt.ArrayLike | None, population: Population | None
-) -> tuple[dict[str, Any], str, str]:
-    """The keywords of ``black_box_bound`` for the class of utilities, the class in words, and a note for the reason."""
+def _black_box_class(common: Common, metric: npt.ArrayLike | None) -> tuple[UtilityClass, str, str]:
+    """The class of utilities of ``black_box_bound``, the class in words, and a note for the reason."""
     gamma, lower, tau, lip = common.gamma, common.lower, common.tau, common.lipschitz
     utility_class = UtilityClass(
         lower=lower,
@@ -197,7 +197,6 @@ def _black_box_class(
         lipschitz=lip if lip > 0 else None,
         metric=metric if lip > 0 else None,
     )
-    kwargs: dict[str, Any] = {"utility_class": utility_class, "population": population}
     cls = (
         f"utilities in [{lower:g}, {gamma:g}]"
         + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
@@ -205,7 +204,7 @@ def _black_box_class(
     )
     vouched = not math.isnan(tau) and tau > lower
     note = "; tau is vouched for: it must hold behind the calibrated mechanism too" if vouched else ""
-    return kwargs, cls, note
+    return utility_class, cls, note
 
 
 def _rr_bound(common: Common, family: MechanismFamily, metric: npt.ArrayLike | None) -> Callable[[float], float] | None:
@@ -240,12 +239,12 @@ def black_box(
     """The largest ε whose exact worst case over every model of the class meets the target (on L)."""
     target, gamma, lower = common.target, common.gamma, common.lower
     tau, lip = common.tau, common.lipschitz
-    kwargs, cls, note = _black_box_class(common, metric, population)
+    utility_class, cls, note = _black_box_class(common, metric)
     bound = _rr_bound(common, family, metric)
     if bound is None:
 
         def bound(eps: float) -> float:
-            return black_box_bound(family(eps), **kwargs).value
+            return black_box_bound(family(eps), utility_class=utility_class, population=population).value
 
     top = bound(math.inf)
     if target >= top:
@@ -385,8 +384,8 @@ def black_box_global(
 def white_box(
     common: Common,
     family: MechanismFamily,
-    kernel: Kernel,
-    utility: Utility,
+    kernel: Kernel | None,
+    utility: Utility | None,
     population: Population | None,
     context_mechanism: Mechanism | None,
     unparsed_decision: int | None = None,
@@ -399,16 +398,25 @@ def white_box(
     With ``unparsed_decision`` (an index of the kernel's decisions) the function of ε scanned and refined is the upper
     end of L (L̄) over every utility of that decision in [min g, max g], per kernel cell
     (:func:`fairaudit.metrics.utility_range.fairness_range`; ``proofs/unparsed.md`` §5); when the kernel puts no mass on
-    that decision the range is a point and the function is L (L̄) itself, as without it.
+    that decision the range is a point and the function is L (L̄) itself, as without it; ``Found.unparsed`` names it.
     """
     from fairaudit.metrics.utility_range import fairness_range
 
+    if kernel is None:
+        raise InputError("kernel", "the white_box method needs a decision model (a [model] in the spec, or kernel=)")
+    if utility is None:
+        raise InputError("utility", "the white_box method needs the utility g")
+    if unparsed_decision is not None and np.ndim(utility.values) != 1:
+        raise InputError(
+            "utility", "must depend on the decision only (g(u)) for unparsed_decision", np.shape(utility.values)
+        )
     target, kind = common.target, common.kind
     limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
     measure = local_fairness if kind == "local" else global_fairness
     name = "L" if kind == "local" else "L-bar"
 
     unparsed = None if unparsed_decision is None else _decision_index(kernel, unparsed_decision)
+    given = None if unparsed is None else (kernel.decisions[unparsed], (utility.lower, utility.gamma))
     if unparsed is not None and np.any(np.nan_to_num(kernel.probabilities[..., unparsed], nan=0.0) > 0):
         label = format_label(kernel.decisions[unparsed])
         name = f"upper end of {name} over every utility of {label!r} in [min g, max g]"
@@ -446,8 +454,10 @@ def white_box(
             why.append("the utility depends on the group")
         if kind == "global" and population is not None and not population.independence().independent:
             why.append("X and A are dependent in the population")
-        return _white_box_floor(target, limit, keep_grid(family), value, f0, name, why)
-    return _scan(target, limit, keep_grid(family), value, f0, name, monotone)
+        found = _white_box_floor(target, limit, keep_grid(family), value, f0, name, why)
+    else:
+        found = _scan(target, limit, keep_grid(family), value, f0, name, monotone)
+    return replace(found, unparsed=given)
 
 
 def _independent_and_whole(population: Population) -> bool:

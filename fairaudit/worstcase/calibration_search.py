@@ -38,8 +38,7 @@ def largest_meeting(
     g_lo, g_hi = f_lo - target, f_hi - target  # g_lo <= 0 < g_hi
     last = 0  # +1: the last step moved lo, -1: it moved hi
     checkpoint, count, probed = hi - lo, 0, False
-    while hi - lo > RTOL * lo + ATOL:
-        tol = RTOL * lo + ATOL
+    while hi - lo > (tol := RTOL * lo + ATOL):
         bisect = False
         if count >= 2:
             bisect = hi - lo > 0.5 * checkpoint

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
+from fairaudit.base.arrays import BoolArray, FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows
 from fairaudit.base.json_values import Report, label, number
@@ -249,18 +249,15 @@ def _utility_case(
         return dataclasses.replace(trivial, value=math.nan, ratio=math.nan)
     if not problem.binding and problem.method != "lp":
         # per leading index, the pairs that can be the largest (box_pairs: exact, O(nA·nU) memory); the first
-        # maximiser in (x, a, b) order, as over the whole table
-        best: tuple[float, int, int, int] | None = None
-        for x in range(P.shape[0]):
+        # maximiser in (x, a, b) order, as over the whole table (max keeps the first of equal values)
+        def best(x: int) -> tuple[float, int, int, int]:
             at = np.flatnonzero(rows[x])
-            if at.size < 2:
-                continue
             found = box_pairs(P[x, at], lower, gamma)
             i = int(np.argmax(found.box))
-            if best is None or found.box[i] > best[0]:
-                best = (float(found.box[i]), x, int(at[found.a[i]]), int(at[found.b[i]]))
-        assert best is not None  # (some leading index has two rows)
-        ratio, x, a, b = best
+            return float(found.box[i]), x, int(at[found.a[i]]), int(at[found.b[i]])
+
+        leading = (best(x) for x in range(P.shape[0]) if np.count_nonzero(rows[x]) >= 2)  # (some has two rows)
+        ratio, x, a, b = max(leading, key=lambda found: found[0])
         ratio = float(widen_up(ratio, widen)) if widen else ratio
         _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
         h = box_point(lower, gamma, order, int(k))
@@ -274,7 +271,7 @@ def _utility_case(
             utility=problem.utility(h),
             reason="a decision is possible for one group and impossible for another" if math.isinf(ratio) else "",
         )
-    flat = _pairs_of_rows(rows)  # (x, a, b), row-major
+    flat = np.argwhere(rows[:, :, None] & rows[:, None, :] & ~np.eye(rows.shape[1], dtype=bool))  # (x, a, b), row-major
     rows_of = flat[:, 0] * P.shape[1]  # (P's rows of context x, one per group)
     upper = pair_values(P.reshape(-1, P.shape[-1]), rows_of + flat[:, 1], rows_of + flat[:, 2], lower, gamma, None)[0]
     upper = np.asarray(widen_up(upper, widen)) if widen else upper
@@ -305,14 +302,3 @@ def _utility_case(
         other_group=groups[b],
         utility=problem.utility(r.argmax) if r.argmax is not None else None,
     )
-
-
-def _pairs_of_rows(rows: BoolArray) -> IntArray:
-    """Every (x, a, b) with rows[x, a], rows[x, b] and a != b, in row-major order."""
-    out = []
-    for x in range(rows.shape[0]):
-        at = np.flatnonzero(rows[x])
-        a, b = np.meshgrid(at, at, indexing="ij")
-        keep = a != b
-        out.append(np.column_stack([np.full(int(keep.sum()), x), a[keep], b[keep]]))
-    return np.concatenate(out).astype(np.intp)

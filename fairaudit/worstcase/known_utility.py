@@ -107,9 +107,7 @@ def worst_model(
     if nA < 2 or not live.any():
         uniform = problem.kernel(np.ones((problem.n_released_contexts, problem.n_released_groups, nU)) / nU)
         reason = "fewer than two groups" if nA < 2 else "no context has positive probability"
-        local = WorstCase.trivial("local", kernel=uniform, reason=reason)
-        global_ = WorstCase.trivial("global", kernel=uniform, reason=reason)
-        return problem.result(local, global_)
+        return problem.result(*(WorstCase.trivial(kind, kernel=uniform, reason=reason) for kind in ("local", "global")))
     method = problem.method
     if method == "threshold" and (not group_free or binding):
         raise InputError("method", "the threshold solution needs a utility free of the group and tau <= min g", method)

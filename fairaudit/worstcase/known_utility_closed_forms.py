@@ -72,7 +72,6 @@ def randomized_response_cases(
     decision_only, same_x, independent = problem.decision_only, problem.same_x, problem.independent
     nU = g.shape[2]
     lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)  # the range of g(., x) per context
-    hot_hi, hot_lo = onehot(g[:, 0, :].argmax(-1), nU), onehot(g[:, 0, :].argmin(-1), nU)  # per context
     over = np.flatnonzero(live & (floor > hi_x))
     if binding and over.size and (decision_only or same_x):
         local = _rr_infeasible(problem, "local", int(over[0]), hi_x)
@@ -80,7 +79,7 @@ def randomized_response_cases(
         return local, global_
     if binding and not (decision_only or same_x):
         return None, None
-    local = _rr_local(problem, rr, lo_x, hi_x, hot_hi, hot_lo, floor)
+    local = _rr_local(problem, rr, lo_x, hi_x, floor)
     # global under X independent of A (Proposition 10 (b); with τ and g(u): H-bar meets every floor)
     if independent and not binding:
         weighted_g, lo_g, hi_g = weighted_box(problem)
@@ -90,10 +89,10 @@ def randomized_response_cases(
     if independent and decision_only:
         lo, hi = float(lo_x[0]), float(hi_x[0])
         w = rr_box(rr, lo, hi, floor)
-        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, hot_hi[0], hot_lo[0])
+        high, low = onehot(g[0, 0].argmax(), nU), onehot(g[0, 0].argmin(), nU)
+        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, high, low)
         case = _rr_case(problem, "global", w, None, kern)
-        a, b = (case.group, case.other_group)
-        pair = (problem.groups.index(a), problem.groups.index(b))
+        pair = (problem.groups.index(case.group), problem.groups.index(case.other_group))
         h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor, *pair) if same_x else None
         point = None if h is None else np.array([h] * len(problem.contexts), dtype=object)
         theta = rr_theta(rr, lo, hi, floor)  # (the one-floor threshold of the pair's program, for the certificate)
@@ -103,30 +102,23 @@ def randomized_response_cases(
 
 
 def _rr_local(
-    problem: ModelProblem,
-    rr: RandomizedResponseParameters,
-    lo_x: FloatArray,
-    hi_x: FloatArray,
-    hot_hi: FloatArray,
-    hot_lo: FloatArray,
-    floor: float,
+    problem: ModelProblem, rr: RandomizedResponseParameters, lo_x: FloatArray, hi_x: FloatArray, floor: float
 ) -> WorstCase:
     """The local maximum behind k-ary RR: the best context's box (proofs/black_box.md §6, Proposition 10 (a)).
 
-    With a binding τ, §3 Proposition 3b per context, on the floor :func:`_floor_behind` gives. ``hot_hi``/``hot_lo``:
-    the one-hot rows of the decisions of largest and smallest g per context.
+    With a binding τ, §3 Proposition 3b per context, on the floor :func:`_floor_behind` gives. ``lo_x``/``hi_x``: the
+    range of g per context.
     """
-    live = problem.live
+    live, g = problem.live, problem.g[:, 0, :]
+    hot_hi, hot_lo = onehot(g.argmax(-1), g.shape[1]), onehot(g.argmin(-1), g.shape[1])  # per context
     ranges, range_of = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
     range_of = range_of.ravel()
-    best_x, best_w = -1, None
+    candidates = []  # (some context is live)
     for index, (lo, hi) in enumerate(ranges.tolist()):
         at = np.flatnonzero(live & (range_of == index))
         if at.size:
-            w = rr_box(rr, lo, hi, floor)
-            if best_w is None or w.value > best_w.value or (w.value == best_w.value and at[0] < best_x):
-                best_x, best_w = int(at[0]), w
-    assert best_w is not None  # (some context is live)
+            candidates.append((rr_box(rr, lo, hi, floor), int(at[0])))
+    best_w, best_x = max(candidates, key=lambda c: (c[0].value, -c[1]))  # (of equal values, the first context)
     lo, hi = float(lo_x[best_x]), float(hi_x[best_x])
     if not problem.binding:  # the threshold kernel of the maximising context, in every released context
         kern = _rr_kernel(problem, best_w, lo, hi, None, hot_hi[best_x], hot_lo[best_x])
@@ -172,12 +164,9 @@ def _rr_kernel(
     high, low = np.broadcast_to(high, (nXr, nU)), np.broadcast_to(low, (nXr, nU))
     h = w.vector(nAr)
     frac = np.clip((h - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones(nAr)
-    table = np.zeros((nXr, nAr, nU))
     if w.prefix and x is None:
-        top = w.released(nAr, hi)
-        table[:] = low[:, None, :]
-        table[:, top, :] = high[:, None, :]
-        return problem.kernel(table, exact=True)
+        return _prefix_kernel(problem, w.released(nAr, hi), high, low)
+    table = np.zeros((nXr, nAr, nU))
     rows = np.arange(nXr) if x is None else np.array([x])
     table[:] = high[:, None, :]
     table[rows] = frac[None, :, None] * high[rows, None, :] + (1 - frac)[None, :, None] * low[rows, None, :]
@@ -281,7 +270,13 @@ def _threshold_kernel(
     """The threshold kernel of the pair (a, b) over the box [lo, hi]: the decisions ``high`` on the released groups of
     its prefix, ``low`` on the others (one-hot rows, per released context or one row for all of them)."""
     _, k, order = threshold_max_many(MA[a], MA[b], lo, hi)
+    return _prefix_kernel(problem, order[: int(k)], high, low)
+
+
+def _prefix_kernel(problem: ModelProblem, top: IntArray, high: FloatArray, low: FloatArray) -> Kernel:
+    """The decisions ``high`` on the released groups ``top``, ``low`` on the others (one-hot rows, per released context
+    or one row for all of them): a threshold kernel, exact."""
     shape = (problem.n_released_contexts, problem.g.shape[2])
     table = np.repeat(np.broadcast_to(low, shape)[:, None, :], problem.n_released_groups, axis=1)
-    table[:, order[: int(k)], :] = np.broadcast_to(high, shape)[:, None, :]
+    table[:, top, :] = np.broadcast_to(high, shape)[:, None, :]
     return problem.kernel(table, exact=True)

@@ -99,8 +99,7 @@ def exact_result(
 
 def _rationals(values: npt.ArrayLike) -> ObjectArray:
     """An array of floats as exact Fractions (an object array of the same shape)."""
-    a = np.asarray(values, dtype=float)
-    return np.array([Fraction(float(v)) for v in a.ravel()], dtype=object).reshape(a.shape)
+    return np.vectorize(Fraction, otypes=[object])(np.asarray(values, dtype=float))
 
 
 def _rows(mechanism: Mechanism, end: int) -> ObjectArray | None:
@@ -170,21 +169,20 @@ class ExactPrograms:
         n = contexts * nAr * (1 if u_only else nU)
         rows = (0 if u_only else 2 * contexts * nAr) + (floor_rows if floors else 0)
         self._size = (n, rows, nXr if problem.same_x else 1)
-        self._ends: list[_End] | None = None
 
-    def _built(self) -> list[_End] | None:
-        if self._ends is None:
-            problem = self._problem
-            two = any(isinstance(m, RandomizedResponse) and not m.is_identity
-                      for m in (problem.mechanism, problem.context_mechanism))  # fmt: skip
-            ends = []
-            for end in (0, 1) if two else (1,):
-                MA, MX = _rows(problem.mechanism, end), _rows(problem.context_mechanism, end)
-                if MA is None or MX is None:
-                    return None
-                ends.append(self._end(MA, MX))
-            self._ends = ends
-        return self._ends
+    @functools.cached_property
+    def _ends(self) -> list[_End] | None:
+        """The programs at each end of e^ε (built at the first exact solve); None where an end has no rows."""
+        problem = self._problem
+        two = any(isinstance(m, RandomizedResponse) and not m.is_identity
+                  for m in (problem.mechanism, problem.context_mechanism))  # fmt: skip
+        ends = []
+        for end in (0, 1) if two else (1,):
+            MA, MX = _rows(problem.mechanism, end), _rows(problem.context_mechanism, end)
+            if MA is None or MX is None:
+                return None
+            ends.append(self._end(MA, MX))
+        return ends
 
     def _end(self, MA: ObjectArray, MX: ObjectArray) -> _End:
         problem = self._problem
@@ -200,21 +198,20 @@ class ExactPrograms:
             lower, upper = [min(row)] * width, [max(row)] * width
         else:
             lower, upper = [Fraction(0)] * width, [Fraction(1)] * width
+        sums: list[list[Fraction]] = []  # Σ_u K[x̃, ã, u] = 1 as two rows a cell, the same in every block
+        for c in range(0 if self._u_only else width // nU):
+            ones = [Fraction(int(c * nU <= j < (c + 1) * nU)) for j in range(width)]
+            sums += [ones, [-v for v in ones]]
         blocks = []
         for i, released in enumerate(groups):
-            a_ub: list[list[Fraction]] = []
-            b_ub: list[Fraction] = []
-            for c in range(0 if self._u_only else width // nU):  # Σ_u K[x̃, ã, u] = 1
-                ones = [Fraction(int(c * nU <= j < (c + 1) * nU)) for j in range(width)]
-                a_ub += [ones, [-v for v in ones]]
-                b_ub += [Fraction(1), Fraction(-1)]
             # −E[g | x, b] ≤ −τ for the live contexts whose rows the block holds (all of them in one block)
             xs = [x for x in (released if problem.same_x else range(g.shape[0])) if live[x]] if self._floors else []
-            for x, b in itertools.product(xs, range(nA)):
-                full = _coefficients(MA, MX, g, self._u_only, x, b)
-                a_ub.append([-v for v in full[i * width : (i + 1) * width]])
-                b_ub.append(-tau)
-            blocks.append(Polytope(lower, upper, a_ub, b_ub, width))
+            floors = [
+                [-v for v in _coefficients(MA, MX, g, self._u_only, x, b)[i * width : (i + 1) * width]]
+                for x, b in itertools.product(xs, range(nA))
+            ]
+            b_ub = [Fraction(1), Fraction(-1)] * (len(sums) // 2) + [-tau] * len(floors)
+            blocks.append(Polytope(lower, upper, sums + floors, b_ub, width))
         return _End(MA, MX, g, self._u_only, blocks, width)
 
     def _floor_multipliers(self, end: _End, y: tuple[Fraction, ...]) -> tuple[Fraction, ...]:
@@ -261,7 +258,7 @@ class ExactPrograms:
         limit = CROSSOVER_SIZE  # (read at each call: the tests shrink it)
         if self._size[0] > limit[0] or self._size[1] > limit[1] or self._size[2] > MAX_BLOCKS:
             return None
-        ends = self._built()
+        ends = self._ends
         if ends is None:
             return None
         status = f"{rounded.solver_status}; {EXACT_CROSSOVER} (exact: {WHY})"

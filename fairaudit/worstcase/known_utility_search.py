@@ -52,54 +52,47 @@ def local_search(
     xs = np.flatnonzero(live)
     pairs = np.asarray(pairs).reshape(-1, 2)
     triples = np.column_stack([np.repeat(xs, len(pairs)), np.tile(pairs, (len(xs), 1))])  # (x, a, b), x-major
+    x, a, b = triples.T
     if problem.group_free:
         assert boxes is not None  # (computed for g free of the group)
         _, range_of, box_by_range = boxes
-        upper = box_by_range[range_of[triples[:, 0]], triples[:, 1], triples[:, 2]]
+        upper = box_by_range[range_of[x], a, b]
     else:
         upper = np.full(len(triples), np.inf)
     reach_hi, reach_lo = problem.reach
     closed = np.full(len(triples), np.inf)  # the closed-form bounds, each rounded up from E[g | x, a]'s bounds
     if tau is not None and tau > 0:
-        closed = up(reach_hi[triples[:, 0], triples[:, 1]] / tau)
-    coefficients = [[_Coefficients.of(space, x, b) for b in range(nA)] if live[x] else [] for x in range(g.shape[0])]
+        closed = up(reach_hi[x, a] / tau)
+    coefficients = [[_Coefficients.of(space, c, d) for d in range(nA)] if live[c] else [] for c in range(g.shape[0])]
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
-        x, a, b = triples[i]
-        return coefficients[x][a], coefficients[x][b]
+        return coefficients[x[i]][a[i]], coefficients[x[i]][b[i]]
 
     if not problem.group_free:
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            crude = np.where(
-                reach_lo[triples[:, 0], triples[:, 2]] > 0,
-                up(reach_hi[triples[:, 0], triples[:, 1]] / reach_lo[triples[:, 0], triples[:, 2]]),
-                np.inf,
-            )
-        closed = np.minimum(closed, crude)
+            closed = np.minimum(closed, np.where(reach_lo[x, b] > 0, up(reach_hi[x, a] / reach_lo[x, b]), np.inf))
     upper = np.minimum(upper, closed)
     inexact = max((c.roundings for row in coefficients for c in row), default=0)
     screens = np.full(len(triples), np.nan)  # each program's one-floor threshold θ, for the certificate
     relaxed = np.full(len(triples), np.inf)
     for context in xs:
         P = np.stack([c.value for c in coefficients[context]])
-        at = triples[:, 0] == context
-        a, b = triples[at, 1], triples[at, 2]
+        at = x == context
         if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
             # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
-            upper[at] = np.minimum(upper[at], _relaxation(P, space.lo, space.hi, floor, inexact)[a, b])
+            upper[at] = np.minimum(upper[at], _relaxation(P, space.lo, space.hi, floor, inexact)[a[at], b[at]])
         # every program's proof over the model's table, which verify checks: its one-floor threshold θ
         v, theta = _table_relaxation(*_as_table(P, space, g), tau, inexact + (space.lo is not None))
-        relaxed[at], screens[at] = v[a, b], theta[a, b]
-    screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
+        relaxed[at], screens[at] = v[a[at], b[at]], theta[a[at], b[at]]
+    screens = _screens(screens, relaxed, tau, reach_hi[x, a])
     if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
         upper = _lowered(upper, relaxed)
-    return _searched(problem, "local", triples, space, pair, inexact, upper, closed, screens)
+    return _searched(_Batch(problem, "local", triples, space, pair, inexact), upper, closed, screens)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
     """max L̄ by the search over pair programs (E[g | a] = Σ_x P(x | a) E[g | x, a] is linear in the kernel too)."""
     g, live, tau, floor = problem.g, problem.live, problem.tau, problem.floor
-    nA = g.shape[1]
     p_context_given_group = np.nan_to_num(problem.population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
     space = _problem_space(problem, MA)
 
@@ -111,9 +104,8 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
 
     # the groups of the pairs (L-bar compares the groups with P(A = a) > 0 only: the caller's pairs), in order
     present = np.unique(pairs)
-    position = np.zeros(nA, dtype=np.intp)
-    position[present] = np.arange(present.size)
-    coefficients = [coef_global(int(a)) for a in present]
+    a, b = np.searchsorted(present, pairs).T  # (each pair's rows of P: its groups' places among them)
+    coefficients = [coef_global(int(c)) for c in present]
     closed = np.full(len(pairs), np.inf)
     if tau is not None and tau > 0:
         # E[g | a] ≤ Σ_x P(x | a) E[g | x, a] ≤ the largest of its terms, over E[g | a'] ≥ τ (E[g | x, a] at most
@@ -126,11 +118,10 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     upper = closed.copy()
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
-        return coefficients[position[pairs[i, 0]]], coefficients[position[pairs[i, 1]]]
+        return coefficients[a[i]], coefficients[b[i]]
 
     inexact = max(c.roundings for c in coefficients)
     P = np.stack([c.value for c in coefficients])
-    a, b = position[pairs[:, 0]], position[pairs[:, 1]]  # (each pair's rows of P)
     if space.lo is not None and space.hi is not None and problem.method != "lp":
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
         upper = np.minimum(upper, v[a, b])
@@ -141,32 +132,35 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
         upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
-    return _searched(problem, "global", global_triples, space, pair, inexact, upper, closed, screens)
+    return _searched(_Batch(problem, "global", global_triples, space, pair, inexact), upper, closed, screens)
 
 
-def _searched(
-    problem: ModelProblem,
-    kind: str,
-    triples: IntArray,
-    space: _ModelSpace,
-    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
-    inexact: int,
-    upper: FloatArray,
-    closed: FloatArray,
-    screens: FloatArray,
-) -> WorstCase:
-    """The search over the programs ``triples[i]`` = (x, a, b) (x = -1 for L̄), in decreasing order of ``upper``; each
-    solved by :func:`_solver`, exactly where its rounded form does not settle it, its proofs kept in :class:`_Evidence`
-    (none without floors: no ν to keep)."""
-    programs = ExactPrograms(problem, space.lo is not None, space.floors)
+@dataclass(frozen=True, eq=False)
+class _Batch:
+    """The programs of one search: ``triples[i]`` = (x, a, b) of program i (x = -1 for L̄) over ``space``, and ``pair(i)``,
+    the coefficients of its numerator and denominator, each entry computed with at most ``inexact`` roundings."""
+
+    problem: ModelProblem
+    kind: str
+    triples: IntArray
+    space: _ModelSpace
+    pair: Callable[[int], tuple[_Coefficients, _Coefficients]]
+    inexact: int
+
+
+def _searched(batch: _Batch, upper: FloatArray, closed: FloatArray, screens: FloatArray) -> WorstCase:
+    """The search over the programs ``batch.triples[i]`` = (x, a, b), in decreasing order of ``upper``; each solved by
+    :func:`_solver`, exactly where its rounded form does not settle it, its proofs kept in :class:`_Evidence` (none
+    without floors: no ν to keep)."""
+    exact_programs = ExactPrograms(batch.problem, batch.space.lo is not None, batch.space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
-        x, a, b = (int(v) for v in triples[i])
-        return programs.solve(programs.local(x, a, b) if kind == "local" else programs.global_(a, b), rounded)
+        x, a, b = (int(v) for v in batch.triples[i])
+        data = exact_programs.local(x, a, b) if batch.kind == "local" else exact_programs.global_(a, b)
+        return exact_programs.solve(data, rounded)
 
-    evidence = _Evidence(problem, kind, triples, screens) if space.floors else None
-    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, kind, found, triples, space, evidence, pair)
+    evidence = _Evidence(batch, screens) if batch.space.floors else None
+    return _model_case(batch, search(upper, _solver(batch, exact, evidence, closed)), evidence)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -176,11 +170,8 @@ def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundi
     exact ratio is at most (1 + γ)/(1 − γ) ≤ 1 + 3γ times the computed one, and a point with P[b]·h ≥ τ has
     P̂[b]·h ≥ (1 − γ)τ, the floor the relaxation keeps.
     """
-    if floor is None:
-        return _widened(pairwise_box(P, lo, hi, None)[0], roundings)
-    relaxed = pairwise_box(P, lo, hi, _kept_floor(floor, roundings))[1]
-    assert relaxed is not None  # (a floor was given)
-    return _widened(relaxed, roundings)
+    box, relaxed = pairwise_box(P, lo, hi, None if floor is None else _kept_floor(floor, roundings))
+    return _widened(box if relaxed is None else relaxed, roundings)
 
 
 def _kept_floor(floor: float, roundings: int) -> float:
@@ -238,10 +229,7 @@ def _screens(theta: FloatArray, relaxed: FloatArray, tau: float | None, reach: F
 
 
 def _solver(
-    problem: ModelProblem,
-    space: _ModelSpace,
-    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
-    roundings: int,
+    batch: _Batch,
     exact: Callable[[int, FractionalResult], FractionalResult | None],
     evidence: _Evidence | None,
     closed: FloatArray,
@@ -270,6 +258,7 @@ def _solver(
     witness is then NaN where the coefficients are not exact (the solver's is on the outer ones). 18 groups behind a
     product of randomized responses, near ties at 1/τ: all but a few of about 250 programs so.
     """
+    problem, space, pair, roundings = batch.problem, batch.space, batch.pair, batch.inexact
 
     def num(i: int) -> FloatArray:
         return pair(i)[0].high
@@ -329,8 +318,7 @@ class _Coefficients:
     @classmethod
     def of(cls, space: _ModelSpace, x: int, b: int) -> _Coefficients:
         value, roundings, nonzero = space.cells(x, b)
-        low, high = product_ends(value, roundings, nonzero)
-        return cls(value, low, high, int(roundings.max(initial=0)))
+        return cls(value, *product_ends(value, roundings, nonzero), int(roundings.max(initial=0)))
 
     @classmethod
     def weighted(cls, space: _ModelSpace, xs: IntArray, b: int, weights: FloatArray, single: bool) -> _Coefficients:
@@ -342,8 +330,7 @@ class _Coefficients:
         if not single:
             roundings = roundings + 2 * space.n_contexts + 1
         nonzero = functools.reduce(operator.or_, [nz for _, _, nz in parts])
-        low, high = product_ends(value, roundings, nonzero)
-        return cls(value, low, high, int(roundings.max(initial=0)))
+        return cls(value, *product_ends(value, roundings, nonzero), int(roundings.max(initial=0)))
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -448,9 +435,9 @@ class _Evidence:
     its context's only behind the identity on the context (every context's floors bind its rows otherwise).
     None without floors (the bound without them is the value)."""
 
-    def __init__(self, problem: ModelProblem, kind: str, triples: IntArray, screens: FloatArray | None) -> None:
-        self.problem, self.kind, self.triples = problem, kind, triples
-        self.live = np.flatnonzero(problem.live)
+    def __init__(self, batch: _Batch, screens: FloatArray) -> None:
+        self.problem, self.kind, self.triples = batch.problem, batch.kind, batch.triples
+        self.live = np.flatnonzero(batch.problem.live)
         self.duals: list[ProgramDual] = []
         self.screens = screens  # each program's one-floor threshold θ (NaN: none)
 
@@ -476,8 +463,6 @@ class _Evidence:
     def all(self) -> tuple[ProgramDual, ...]:
         """The LP's multipliers kept, then every program's screen threshold θ (verify takes the least bound of the
         two: a value lowered to its closed-form bound, below what the LP's multipliers prove, rests on θ)."""
-        if self.screens is None:
-            return tuple(self.duals)
         local = self.kind == "local"
         screens = [
             self.problem.dual(x if local else None, a, b, theta=float(self.screens[i]))
@@ -487,29 +472,22 @@ class _Evidence:
         return (*self.duals, *screens)
 
 
-def _model_case(
-    problem: ModelProblem,
-    kind: str,
-    found: SearchResult,
-    triples: IntArray,
-    space: _ModelSpace,
-    evidence: _Evidence | None,
-    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
-) -> WorstCase:
-    """The worst case of a search over (context, pair) programs; ``triples[i]`` = (x, a, b) of program i. The
-    maximiser's point the certificate records (``witness_point``) is its basis's vertex on the inner program, exactly,
-    where that attains the witness (:func:`_exact_witness`); else the float maximiser, clipped."""
+def _model_case(batch: _Batch, found: SearchResult, evidence: _Evidence | None) -> WorstCase:
+    """The worst case of a search over (context, pair) programs. The maximiser's point the certificate records
+    (``witness_point``) is its basis's vertex on the inner program, exactly, where that attains the witness
+    (:func:`_exact_witness`); else the float maximiser, clipped."""
+    problem, kind, space = batch.problem, batch.kind, batch.space
     r = found.result
     if found.index < 0:
         reason = found.reason or "the constraints are inconsistent"
         return WorstCase.unmet(kind, found, "no decision model meets E[g | x, a] >= tau in every cell: " + reason)
     assert r is not None  # a maximiser was found
-    x, a, b = triples[found.index]
+    x, a, b = batch.triples[found.index]
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
     duals = () if evidence is None else evidence.all()
     point: npt.NDArray[Any] | None = None
     if r.argmax is not None and (bool(duals) or space.lo is None):  # (recorded over the model's table: always)
-        r, vertex = _exact_witness(r, *pair(found.index), space)
+        r, vertex = _exact_witness(r, *batch.pair(found.index), space)
         argmax = np.asarray(r.argmax, dtype=float)
         n_x = len(problem.contexts)
         if not problem.same_x:  # the table over every released context

@@ -160,29 +160,26 @@ def _full(
 ) -> tuple[Rows, list[Fraction], Pairs]:
     """The rows of H in ``verify``'s order (variables h[b, ã], group-major) and each ordered pair's (p, q)."""
     n, m = len(rows), len(rows[0])
+
+    def placed(cells: dict[int, Fraction]) -> list[Fraction]:
+        """A row over the n·m variables, zero but at ``cells``."""
+        return [cells.get(j, Fraction(0)) for j in range(n * m)]
+
+    def block(b: int, values: list[Fraction]) -> list[Fraction]:
+        return placed(dict(zip(range(b * m, (b + 1) * m), values)))
+
     a_ub: Rows = []
     b_ub: list[Fraction] = []
     for b, c in itertools.combinations(range(n), 2):
         if lip * d[b][c] >= gamma - lower:
             continue  # implied by the box, not recorded
-        for o in range(m):
-            for sign in (1, -1):
-                row = [Fraction(0)] * (n * m)
-                row[b * m + o], row[c * m + o] = Fraction(sign), Fraction(-sign)
-                a_ub.append(row)
-                b_ub.append(lip * d[b][c])
+        for o, sign in itertools.product(range(m), (1, -1)):
+            a_ub.append(placed({b * m + o: Fraction(sign), c * m + o: Fraction(-sign)}))
+            b_ub.append(lip * d[b][c])
     if floor is not None:
-        for b in range(n):
-            row = [Fraction(0)] * (n * m)
-            row[b * m : (b + 1) * m] = [-v for v in rows[b]]
-            a_ub.append(row)
-            b_ub.append(-floor)
-    pairs: Pairs = {}
-    for a, b in itertools.permutations(range(n), 2):
-        p, q = [Fraction(0)] * (n * m), [Fraction(0)] * (n * m)
-        p[a * m : (a + 1) * m], q[b * m : (b + 1) * m] = rows[a], rows[b]
-        pairs[(a, b)] = (p, q)
-    return a_ub, b_ub, pairs
+        a_ub += [block(b, [-v for v in rows[b]]) for b in range(n)]
+        b_ub += [-floor] * n
+    return a_ub, b_ub, {(a, b): (block(a, rows[a]), block(b, rows[b])) for a, b in itertools.permutations(range(n), 2)}
 
 
 _ORBITS = ("a.a", "a.a'", "a.o", "a'.a", "a'.a'", "a'.o", "c.a", "c.a'", "c.c", "c.o")
@@ -212,16 +209,14 @@ def _symmetric(
         for g in ("a", "a'"):
             pairs += [(f"{g}.a", "c.a"), (f"{g}.a'", "c.a'"), (f"{g}.o", "c.c"), (f"{g}.o", "c.o")]
         pairs.append(("c.c", "c.o"))
-        for one, two in pairs:
+        for (one, two), sign in itertools.product(pairs, (1, -1)):
             if one in present and two in present:
-                for sign in (1, -1):
-                    a_ub.append(form({one: Fraction(sign), two: Fraction(-sign)}))
-                    b_ub.append(limit)
+                a_ub.append(form({one: Fraction(sign), two: Fraction(-sign)}))
+                b_ub.append(limit)
     if floor is not None:
         floors = [top, bottom]
         if "c.c" in present:
             floors.append(form({"c.a": q, "c.a'": q, "c.c": p, "c.o": (others - 1) * q}))
-        for row in floors:
-            a_ub.append([-v for v in row])
-            b_ub.append(-floor)
+        a_ub += [[-v for v in row] for row in floors]
+        b_ub += [-floor] * len(floors)
     return a_ub, b_ub, {(0, 1): (top, bottom)}

@@ -150,8 +150,7 @@ def relaxed_first(
             v, k, frac, order = floor_max_many(p, q, lower, upper, floor)
         if not np.isnan(v):
             h = box_point(lower, upper, order, int(k), float(frac))
-            free = (p == 0) & (q == 0)  # cells outside the objective: the top of the box helps every τ row
-            h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
+            h[(p == 0) & (q == 0)] = upper  # cells outside the objective: the top of the box helps every τ row
             if rows is None or floor is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
                 status = "unbounded" if math.isinf(v) else "optimal"
                 constraints = [] if rows is None or floor is None else [(-rows, -floor * np.ones(len(rows)), "le")]
@@ -452,9 +451,7 @@ Parts = list[tuple[IntArray, IntArray, FloatArray, FloatArray | None]]
 
 def _finish(n: int, parts: Parts, box_fill: float, relaxed_fill: float) -> BoxPairs:
     """Merge the exactly solved pairs (duplicates dropped, row-major)."""
-    a = np.concatenate([x[0] for x in parts]).astype(np.intp)
-    b = np.concatenate([x[1] for x in parts]).astype(np.intp)
-    flat, first = np.unique(a * n + b, return_index=True)
+    flat, first = np.unique(np.concatenate([x[0].astype(np.intp) * n + x[1] for x in parts]), return_index=True)
     box = np.concatenate([x[2] for x in parts])[first]
     rel = None if parts[0][3] is None else np.concatenate([x[3] for x in parts if x[3] is not None])[first]
     a, b = np.divmod(flat, n)

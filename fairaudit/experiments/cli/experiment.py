@@ -32,8 +32,10 @@ _keep = number_type("a probability in [1/k, 1)", low=0.0, high=1.0, low_open=Tru
 """A keep probability: in (0, 1) here; the experiment checks its lower end 1/k, which depends on the attribute."""
 
 _tolerance = number_type("a relative difference in [0, 1]", low=0.0, high=1.0)
-_share = number_type("a share of the mass in [0, 1]", low=0.0, high=1.0)
 """The equal-distance check's tolerance: a number in [0, 1]."""
+
+_share = number_type("a share of the mass in [0, 1]", low=0.0, high=1.0)
+"""``--min-coverage``: the share of a cell's mass on its options' reply variants, in [0, 1]."""
 
 
 def _rooms(text: str) -> list[str]:

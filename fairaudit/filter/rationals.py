@@ -20,7 +20,6 @@ __all__ = [
     "Rows",
     "as_rows",
     "exact_number",
-    "reduced",
 ]
 
 Rows = tuple[tuple[int, ...], ...]
@@ -104,15 +103,3 @@ def as_rows(rows: Sequence[Sequence[object]], field: str) -> tuple[Rows, int]:
     denominator = math.lcm(*(v.denominator for row in exact for v in row))
     numerators = tuple(tuple(v.numerator * (denominator // v.denominator) for v in row) for row in exact)
     return numerators, denominator
-
-
-def reduced(numerators: Rows, denominator: int) -> tuple[Rows, int]:
-    """``numerators`` and ``denominator`` divided by their greatest common divisor.
-
-    Examples
-    --------
-    >>> reduced(((2, 4), (6, 0)), 6)
-    (((1, 2), (3, 0)), 3)
-    """
-    g = math.gcd(denominator, *(n for row in numerators for n in row))
-    return tuple(tuple(n // g for n in row) for row in numerators), denominator // g

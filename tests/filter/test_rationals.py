@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fairaudit.base.errors import InputError
-from fairaudit.filter.rationals import as_rows, exact_number, reduced
+from fairaudit.filter.rationals import as_rows, exact_number
 
 
 def test_numbers_are_read_exactly():
@@ -38,7 +38,3 @@ def test_rows_that_do_not_sum_to_one_say_why():
         as_rows([["3/2", "-1/2"]], "rows")
     with pytest.raises(InputError, match=r"rows\[1\]: has 1 entries, the first row 2"):
         as_rows([["1/2", "1/2"], [1]], "rows")
-
-
-def test_reduced():
-    assert reduced(((4, 8), (12, 0)), 12) == (((1, 2), (3, 0)), 3)

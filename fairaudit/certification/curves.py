@@ -369,7 +369,11 @@ def privacy_curve(
         "utility": utility,
         "population": population,
         "context_mechanism": context_mechanism,
-        **{name: getattr(c, name) for name in ("gamma", "lower", "tau", "lipschitz", "metric")},
+        "gamma": c.gamma,
+        "lower": c.lower,
+        "tau": c.tau,
+        "lipschitz": c.lipschitz,
+        "metric": c.metric,
         "spec_epsilon": spec_epsilon,
         "title": title,
     }

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import itertools
 import math
+from fractions import Fraction
 
 import numpy as np
 import pandas as pd
 import pytest
 import scipy.stats
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 from scipy.stats import binomtest
@@ -434,6 +435,57 @@ def test_min_max_ratio_lp_equals_the_same_lp_in_cvxpy(A, n):
         assert np.all((e @ W.T).max(1) / (e @ W.T).min(1) >= value)
     value = MinMaxRatio(A, n).solve(W, lo, hi)
     assert value == pytest.approx(max(ref.value, 1.0), rel=1e-8)
+
+
+@st.composite
+def _randomized_response_boxes(draw):
+    """A randomized response on A groups, placed on the cells of one context among X (the others weigh 0, as a local
+    map's W has them), and a box of cells: zeros, near-equal ends and ties with the largest lower end included."""
+    A, X = draw(st.integers(2, 7)), draw(st.integers(1, 3))
+    x = draw(st.integers(0, X - 1))
+    eps = draw(st.sampled_from([1e-9, 0.1, 0.5, 1.0, 3.0, 10.0, 40.0, 700.0, math.inf]))
+    matrix = np.eye(A) if math.isinf(eps) else randomized_response(range(A), eps).matrix
+    W = np.zeros((A, X * A))
+    W[:, x * A : (x + 1) * A] = matrix
+    unit = st.floats(0.0, 1.0)
+    lo = np.array(draw(st.lists(unit | st.just(0.0), min_size=X * A, max_size=X * A)))
+    width = draw(st.sampled_from([1e-6, 0.1, 1.0]))
+    hi = np.minimum(lo + width * np.array(draw(st.lists(unit, min_size=X * A, max_size=X * A))), 1.0)
+    if draw(st.booleans()):
+        hi[x * A + draw(st.integers(0, A - 1))] = max(hi[x * A + draw(st.integers(0, A - 1))], lo.max())
+    assume(np.any(W @ lo > 0) and np.all(W @ hi > 0))  # (MinMaxRatio.solve answers the other cases first)
+    return W, lo, hi
+
+
+@given(_randomized_response_boxes())
+def test_randomized_response_min_max_is_the_exact_lp_optimum(case):
+    """The closed form behind randomized response against the Charnes–Cooper LP solved exactly from HiGHS's basis
+    (a second route): the same exact optimum, so the same lower end to the last bit; no point of the box is below
+    it."""
+    from fairaudit.base.outward import fraction_down
+    from fairaudit.metrics.box_extremes import MinMaxRatio, randomized_response_min_max
+
+    W, lo, hi = case
+    exact = randomized_response_min_max(W, lo, hi)
+    by_lp = MinMaxRatio(*W.shape).lp(W, lo, hi)
+    assert exact is not None and by_lp is not None
+    assert fraction_down(exact) == by_lp
+    e = lo + np.random.default_rng(0).random((200, len(lo))) * (hi - lo)  # points of the box
+    assert np.all((e @ W.T).max(1) / (e @ W.T).min(1) >= float(exact) * (1 - 1e-12))
+
+
+def test_randomized_response_min_max_leaves_other_matrices_to_the_lp():
+    W = np.array([[0.5, 0.25, 0.25], [0.25, 0.5, 0.25], [0.25, 0.25, 0.5]])
+    lo, hi = np.array([0.0, 0.5, 0.25]), np.array([0.125, 0.75, 0.375])
+    from fairaudit.metrics.box_extremes import randomized_response_min_max
+
+    # (4/3 by hand: at e = (1/8, 1/2, 3/8), S = 1 and W e = (9/32, 3/8, 11/32); at t = 3/4 the ratio is 16/11)
+    assert randomized_response_min_max(W, lo, hi) == Fraction(4, 3)
+    skewed = W.copy()
+    skewed[0, 1] = 0.2  # one cell off: not randomized response
+    assert randomized_response_min_max(skewed, lo, hi) is None
+    assert randomized_response_min_max(W[:, ::-1], lo, hi) is None  # the own cells not on the diagonal
+    assert randomized_response_min_max(np.full((3, 3), 1 / 3), lo, hi) is None  # epsilon = 0: p = q
 
 
 def test_mixed_ratio_tiny_positive_upper_end():

@@ -89,6 +89,30 @@ def test_the_command_line_imports_only_the_command_it_names(words):
     assert names & modules == ({f"fairaudit.cli.{words[0]}"} if words[0] in CORE else set())
 
 
+SEARCH = (
+    "fairaudit.worstcase.black_box",
+    "fairaudit.worstcase.pair_search",
+    "fairaudit.worstcase.known_utility_search",
+    "fairaudit.worstcase.known_utility_exact",
+    "fairaudit.worstcase.lipschitz_proofs",
+    "fairaudit.base.linear_fractional",
+    "fairaudit.base.exact_duality",
+    "fairaudit.base.table_relaxation",
+)
+"""The worst-case searches' modules: certify loads them only where no closed form answers."""
+
+
+def test_certify_behind_randomized_response_loads_no_search_module():
+    """The shipped example (8-ary randomized response, a known utility): the closed forms answer every worst case
+    and the calibrations, so none of the searches' modules is loaded (a tenth of certify's own start-up). The
+    black-box bound's module loads them, which shows the check can fail."""
+    names = _imported("-m", "fairaudit.cli", "certify", "examples/llm_hiring/gpt35.toml", "--no-progress")
+    assert "fairaudit.certification.certificate" in names
+    assert sorted(names & set(SEARCH)) == []
+    names = _imported("-c", "import fairaudit as fa; fa.black_box_bound(fa.randomized_response([0, 1], 1.0))")
+    assert {"fairaudit.worstcase.black_box", "fairaudit.base.linear_fractional"} <= names
+
+
 @pytest.mark.slow
 def test_the_check_catches_a_heavy_import():
     """The test above can fail: an interpreter that imports scipy.stats is caught."""

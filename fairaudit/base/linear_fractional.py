@@ -31,13 +31,12 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import PreparedRows, certify_ratio, prepare_rows
 from fairaudit.base.exact_lp import ExactProgram
 from fairaudit.base.exact_ratio import dot
-from fairaudit.base.outward import fraction_down, fraction_up, up
+from fairaudit.base.outward import fraction_down, fraction_up, gap_between
 
 __all__ = [
     "EXACT_BASIS",
     "FractionalProgram",
     "FractionalResult",
-    "gap_between",
 ]
 
 
@@ -110,21 +109,6 @@ class FractionalResult:
     dual: tuple[FloatArray, ...] = ()
     exact_dual: tuple[tuple[Fraction, ...], ...] | None = None
     basis: tuple[str, ...] | None = None
-
-
-def gap_between(value: float, witness: float) -> float:
-    """``value − witness`` rounded up: the certified width of the interval [witness, value] (NaN without both).
-
-    Examples
-    --------
-    >>> gap_between(2.0, 1.0), gap_between(math.inf, math.inf)
-    (1.0, 0.0)
-    """
-    if math.isnan(value) or math.isnan(witness):
-        return math.nan
-    if value == witness:
-        return 0.0
-    return up(value - witness)
 
 
 CROSSOVER_TOLERANCE = 1e-13

@@ -68,6 +68,7 @@ __all__ = [
     "exp_up",
     "fraction_down",
     "fraction_up",
+    "gap_between",
     "ln_bounds",
     "log_down",
     "log_up",
@@ -285,6 +286,21 @@ def fraction_up(x: Exact) -> float:
     if math.isfinite(f) and Fraction(f) < q:
         f = math.nextafter(f, math.inf)
     return f
+
+
+def gap_between(value: float, witness: float) -> float:
+    """``value − witness`` rounded up: the certified width of the interval [witness, value] (NaN without both).
+
+    Examples
+    --------
+    >>> gap_between(2.0, 1.0), gap_between(math.inf, math.inf)
+    (1.0, 0.0)
+    """
+    if math.isnan(value) or math.isnan(witness):
+        return math.nan
+    if value == witness:
+        return 0.0
+    return up(value - witness)
 
 
 def fraction_down(x: Exact) -> float:

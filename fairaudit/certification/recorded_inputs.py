@@ -21,7 +21,6 @@ from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.worstcase.known_utility import worst_model
-from fairaudit.worstcase.lipschitz_proofs import lipschitz_proof
 
 if TYPE_CHECKING:
     from fairaudit.certification.spec import Spec
@@ -164,6 +163,8 @@ def member_proofs(
         if m is None or (len(m.inputs) < 2 and not cal.lipschitz):
             continue
         if cal.lipschitz:
+            from fairaudit.worstcase.lipschitz_proofs import lipschitz_proof  # (the Lipschitz class's only)
+
             metric = None if spec.metric is None else np.asarray(spec.metric, dtype=float).tolist()
             proof = lipschitz_proof(mechanism_inputs(m), cal.lower, cal.gamma, tau, cal.lipschitz, metric)
         elif dependent:

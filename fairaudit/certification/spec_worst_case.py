@@ -21,7 +21,7 @@ from fairaudit.laws.composition import compose
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.observed import Observed, observe
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility
-from fairaudit.worstcase.pair_search import METHODS
+from fairaudit.worstcase.worst_cases import METHODS
 
 __all__ = ["SpecWorstUtility", "spec_worst_utility"]
 

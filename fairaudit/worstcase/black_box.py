@@ -18,8 +18,8 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
-from fairaudit.base.outward import down, fraction_up, log_up, product_ends, rounding_error, up, widen_up
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.outward import down, fraction_up, gap_between, log_up, product_ends, rounding_error, up, widen_up
 from fairaudit.base.resources import check_memory, memory_limit
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
@@ -34,7 +34,6 @@ from fairaudit.worstcase.pair_search import (
     SearchResult,
     box_pairs,
     check_class,
-    check_method,
     implied_floor,
     inner_witness,
     pair_ratio,
@@ -43,7 +42,7 @@ from fairaudit.worstcase.pair_search import (
     search,
 )
 from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz_ratio, unit_class
-from fairaudit.worstcase.worst_cases import nats_up
+from fairaudit.worstcase.worst_cases import check_method, nats_up
 
 WITNESS_BYTES = 40
 """Bytes per group of the certificate of k-ary randomized response (per group and released value with a Lipschitz

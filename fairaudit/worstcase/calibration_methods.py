@@ -36,7 +36,6 @@ from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import main_theorem, main_theorem_tight
 from fairaudit.metrics.fairness import global_fairness, local_fairness
-from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.calibration_result import Common
 from fairaudit.worstcase.calibration_search import EPS_MAX, bracket, keep_grid, largest_meeting
 from fairaudit.worstcase.randomized_response import rr_class_value, rr_law
@@ -242,6 +241,7 @@ def black_box(
     utility_class, cls, note = _black_box_class(common, metric)
     bound = _rr_bound(common, family, metric)
     if bound is None:
+        from fairaudit.worstcase.black_box import black_box_bound  # (randomized response's closed form needs none)
 
         def bound(eps: float) -> float:
             return black_box_bound(family(eps), utility_class=utility_class, population=population).value

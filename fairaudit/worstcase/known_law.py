@@ -26,14 +26,13 @@ from fairaudit.worstcase.pair_search import (
     InnerProgram,
     box_pairs,
     check_class,
-    check_method,
     implied_floor,
     inner_witness,
     pair_values,
     ratio_ceiling,
     search,
 )
-from fairaudit.worstcase.worst_cases import WorstCase, nats_up
+from fairaudit.worstcase.worst_cases import WorstCase, check_method, nats_up
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

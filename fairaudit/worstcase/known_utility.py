@@ -23,7 +23,6 @@ from fairaudit.worstcase.known_utility_closed_forms import (
     randomized_response_cases,
 )
 from fairaudit.worstcase.known_utility_problem import model_problem
-from fairaudit.worstcase.known_utility_search import global_search, local_search
 from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
 
 
@@ -121,6 +120,8 @@ def worst_model(
         if problem.same_x:
             rr_local, rr_global = randomized_response_cases(problem, mechanism.rr)
     general = rr_local is None or rr_global is None
+    if general:  # (the search's modules load only where it runs)
+        from fairaudit.worstcase.known_utility_search import global_search, local_search
     MA = mechanism.matrix if general else np.zeros((0, 0))
     pairs = np.argwhere(~np.eye(nA, dtype=bool)) if general else np.zeros((0, 2), dtype=np.intp)  # (a, b), a != b
     boxes = boxes_by_range(problem, MA) if group_free and rr_local is None else None

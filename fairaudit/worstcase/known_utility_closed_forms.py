@@ -27,7 +27,6 @@ from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel
 from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
-from fairaudit.worstcase.pair_search import pairwise_box
 from fairaudit.worstcase.randomized_response import RRWorst, rr_box, rr_theta, rr_witness_point
 from fairaudit.worstcase.worst_cases import WorstCase, nats_up
 
@@ -210,6 +209,8 @@ def boxes_by_range(problem: ModelProblem, MA: FloatArray) -> tuple[FloatArray, I
             np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0, return_inverse=True
         )
         range_of = range_of.ravel()
+    from fairaudit.worstcase.pair_search import pairwise_box  # (not loaded where the closed forms answer)
+
     # (n_ranges, nA, nA), a block of pairs at a time
     box_by_range = np.stack([pairwise_box(MA, low, high, None)[0] for low, high in ranges.tolist()])
     box_by_range[:, np.arange(nA), np.arange(nA)] = -np.inf
@@ -253,6 +254,8 @@ def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
     weighted_g, lo_g, hi_g = weighted_box(problem)
     # L-bar compares the groups with P(A = a) > 0 only: the pairs of the others are not offered (pairwise_box fills
     # the pairs that cannot be the largest with one upper bound of them all, which an absent pair may set)
+    from fairaudit.worstcase.pair_search import pairwise_box
+
     present = np.flatnonzero(problem.population.p_group > 0)
     vals = pairwise_box(MA[present], lo_g, hi_g, None)[0]
     np.fill_diagonal(vals, -np.inf)

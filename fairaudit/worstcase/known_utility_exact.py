@@ -27,8 +27,8 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.exact_ratio import Polytope, RatioOptimum, maximize_ratio_over_product
-from fairaudit.base.linear_fractional import FractionalResult, gap_between
-from fairaudit.base.outward import fraction_down, fraction_up
+from fairaudit.base.linear_fractional import FractionalResult
+from fairaudit.base.outward import fraction_down, fraction_up, gap_between
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.worstcase.known_utility_problem import ModelProblem, coefficient_factors

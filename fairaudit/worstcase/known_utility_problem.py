@@ -29,9 +29,8 @@ from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
-from fairaudit.worstcase.pair_search import check_method
 from fairaudit.worstcase.randomized_response import rr_law
-from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, WorstModel
+from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, WorstModel, check_method
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

@@ -21,8 +21,17 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
-from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
+from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult
+from fairaudit.base.outward import (
+    down,
+    fraction_up,
+    gap_between,
+    product_ends,
+    product_roundings,
+    rounding_error,
+    up,
+    widen_up,
+)
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem, coefficient_factors

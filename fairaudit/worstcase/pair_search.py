@@ -3,8 +3,8 @@
 Every maximum of :mod:`fairaudit.worstcase` is a maximum over problems (ordered pairs of groups, and contexts)
 of a linear-fractional program. :func:`search` solves them in decreasing order of an upper bound and stops when
 no problem left can win; :func:`relaxed_first` tries the closed-form floor relaxation before the LP;
-:func:`pairwise_box` gives the box (threshold) value of every pair at once; :func:`check_method` and
-:func:`check_class` check the arguments the worst cases share. ``proofs/black_box.md`` §1–2 and §5,
+:func:`pairwise_box` gives the box (threshold) value of every pair at once; :func:`check_class` checks the class the
+worst cases share (:func:`~fairaudit.worstcase.worst_cases.check_method` their method). ``proofs/black_box.md`` §1–2 and §5,
 ``proofs/linear_fractional.md``.
 """
 
@@ -21,17 +21,14 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray
-from fairaudit.base.checks import choice
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows, point_ratio
-from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
-from fairaudit.base.outward import down, fraction_up
+from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult
+from fairaudit.base.outward import down, fraction_up, gap_between
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
 from fairaudit.base.progress import STEP_DELAY, ProgressBar, progress_bar
 from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 from fairaudit.laws.utilities import UtilityClass
-
-METHODS = ("auto", "threshold", "lp")
 
 STOP = 1e-12
 """Relative margin of :func:`search`'s stop: problems whose bound is within it of the best value are not solved
@@ -259,11 +256,6 @@ def inner_witness(
             if math.isfinite(w):
                 break
     return replace(r, witness=w, gap=gap_between(r.value, w))
-
-
-def check_method(method: str) -> str:
-    """``method`` if it is one of :data:`METHODS` ("auto", "threshold", "lp")."""
-    return choice(method, "method", METHODS)
 
 
 def check_class(utility_class: UtilityClass | None) -> tuple[float, float, float | None]:

@@ -13,26 +13,36 @@ import math
 from collections.abc import Hashable
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray
+from fairaudit.base.checks import choice
 from fairaudit.base.json_values import Report, label, number, pair_dict
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import EXACT_BASIS, gap_between
-from fairaudit.base.outward import log_down, log_up
+from fairaudit.base.outward import gap_between, log_down, log_up
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption
-from fairaudit.worstcase.pair_search import SearchResult
+
+if TYPE_CHECKING:
+    from fairaudit.worstcase.pair_search import SearchResult
+
+METHODS = ("auto", "threshold", "lp")
+"""The worst-case searches' methods: the threshold solution where it applies, else the LP ("auto"), or one of them."""
 
 EXACT_CROSSOVER = "then solved exactly"
 """What ``solver_status`` adds when the program was solved again on exact coefficients (``dual`` is then empty),
 followed by why (:mod:`fairaudit.worstcase.known_utility_exact`: the rounded coefficients' witness did not meet the
 value)."""
+
+
+def check_method(method: str) -> str:
+    """``method`` if it is one of :data:`METHODS` ("auto", "threshold", "lp")."""
+    return choice(method, "method", METHODS)
 
 
 def nats_up(ratio: float) -> float:
@@ -286,17 +296,17 @@ class WorstCase:
 
     def to_dict(self) -> Report:
         """The report dictionary: value, ratio, (context,) the pair, method, status, programs solved (and reason)."""
+        from_dual = self.certified and self.method == "lp" and EXACT_CROSSOVER not in self.solver_status
+        if from_dual:  # (only the LP route's module knows its statuses: it is loaded where an LP ran)
+            from fairaudit.base.linear_fractional import EXACT_BASIS
+
+            from_dual = EXACT_BASIS not in self.solver_status
         d = pair_dict(self.kind, self.value, self.ratio, self.context, self.group, self.other_group)
         d.update(method=self.method, status=self.status, programs_solved=int(self.programs_solved))
         d.update(
             solver_status=self.solver_status,
             certified=bool(self.certified),
-            certified_from_dual=bool(
-                self.certified
-                and self.method == "lp"
-                and EXACT_CROSSOVER not in self.solver_status
-                and EXACT_BASIS not in self.solver_status
-            ),
+            certified_from_dual=bool(from_dual),
             witness=number(self.witness),
             gap=number(self.gap),
         )

@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
 from fairaudit.base.checks import number_type
 from fairaudit.base.errors import InputError
-from fairaudit.base.files import write_atomic
 from fairaudit.reports.formats import FORMATS
 
 if TYPE_CHECKING:
@@ -232,6 +231,8 @@ def emit(args: argparse.Namespace, text: str, summary: str) -> None:
     """
     work_done()
     if args.output is not None:
+        from fairaudit.base.files import write_atomic  # (and tempfile: only for --output)
+
         write_atomic(args.output, text)
         print(f"{summary}; report written to {args.output}", file=sys.stderr)
     else:

@@ -61,7 +61,6 @@ from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.assumptions import Assumption, assumptions_for
-from fairaudit.metrics.privacy_profile import paper_minimum, tight_maximum
 
 __all__ = [
     "Bound",
@@ -414,6 +413,8 @@ def paper_bound(
         c = fraction_up(Fraction(lipschitz) * Fraction(diameter))  # L_A·diam rounded up
         if isinstance(mechanism, RandomizedResponse):
             return (*_randomized_response_minimum(mechanism.rr, _paper_value, c, 1.0, gamma, tau), None)
+        from fairaudit.metrics.privacy_profile import paper_minimum  # (a matrix's: not loaded for randomized response)
+
         return (*paper_minimum(mechanism.matrix, gamma, tau, c), None)
 
     return _bound("paper", mechanism, (gamma, tau, lipschitz, diameter), (utility, population, law), solve)
@@ -508,6 +509,8 @@ def tight_bound(
             a, b = int(far[0]), int(far[1])
             value, eps, delta = _randomized_response_minimum(rr, _tight_value, lipschitz, diameter, gamma, tau)
         else:
+            from fairaudit.metrics.privacy_profile import tight_maximum  # (a matrix's)
+
             value, eps, delta, a, b = tight_maximum(mechanism.matrix, d, gamma, tau, lipschitz)
         return value, eps, delta, (mechanism.inputs[a], mechanism.inputs[b])
 

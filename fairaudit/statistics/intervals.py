@@ -80,7 +80,6 @@ from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.observed import observe
-from fairaudit.statistics.bayes import band_sets
 from fairaudit.statistics.confidence_sets import binomial_sets, sum_last
 from fairaudit.statistics.projection import MetricEnds, Projection, ProjectionOptions, project_sets
 
@@ -432,6 +431,8 @@ def fairness_intervals(
     prior = concentration / counts.shape[-1] if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
     plugin = table.effective_counts() if method == "bayes" else counts  # (the posterior's counts: effective ones)
     estimate = _estimates(table, plugin + prior, utility, law)
+    if method == "bayes":  # (its module loaded only for its sets)
+        from fairaudit.statistics.bayes import band_sets
     bayes: dict[str, Any] = (
         {"concentration": float(concentration), "draws": int(draws), "seed": int(seed)} if method == "bayes" else {}
     )

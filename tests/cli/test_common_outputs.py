@@ -29,15 +29,15 @@ def test_a_ctrl_c_right_after_the_report_is_renamed_into_place_is_ignored(tmp_pa
     import os
     import signal
 
-    import fairaudit.cli._common as common
+    import fairaudit.base.files as files
 
-    written = common.write_atomic
+    written = files.write_atomic
 
     def then_ctrl_c(*args, **kwargs):
         written(*args, **kwargs)
         os.kill(os.getpid(), signal.SIGINT)
 
-    monkeypatch.setattr(common, "write_atomic", then_ctrl_c)
+    monkeypatch.setattr(files, "write_atomic", then_ctrl_c)  # (emit imports it when it writes)
     out = tmp_path / "plan.txt"
     before = signal.getsignal(signal.SIGINT)
     assert main(["plan", "--target", "0.5", "--output", str(out)]) == 0

@@ -187,6 +187,21 @@ def randomized_response_min_max(W: FloatArray, lo: FloatArray, hi: FloatArray) -
     cells' ranges meet). ``proofs/intervals.md`` §4; O(A log A) exact operations for A groups, none of them an LP.
     Call it where some group can be above 0 and none is 0 on the whole box (:meth:`MinMaxRatio.solve` checks both).
 
+    Parameters
+    ----------
+    W : array of shape (n_groups, n_cells)
+        Each group's weights on the cells; randomized response on exactly n_groups of the cells (the others 0), the
+        group's own cell at its own index among them.
+    lo, hi : arrays of shape (n_cells,)
+        The box, lo ≤ hi.
+
+    Returns
+    -------
+    Fraction or None
+        The exact minimum, a ratio (not a log), taking the floats at their exact values; None where W is not
+        randomized response with p > q on two or more groups, or an end of a weighed cell is not finite (the LP's
+        case).
+
     Examples
     --------
     >>> W = np.array([[0.5, 0.25, 0.25], [0.25, 0.5, 0.25], [0.25, 0.25, 0.5]])
@@ -194,7 +209,7 @@ def randomized_response_min_max(W: FloatArray, lo: FloatArray, hi: FloatArray) -
     Fraction(4, 3)
     """
     cells = np.flatnonzero(W.any(0))
-    if len(W) < 2 or len(cells) != len(W):
+    if len(W) < 2 or len(cells) != len(W) or not np.isfinite(lo[cells]).all() or not np.isfinite(hi[cells]).all():
         return None
     V = W[:, cells]
     own, other = np.diag(V), V[~np.eye(len(W), dtype=bool)]

@@ -178,29 +178,31 @@ class MinMaxRatio:
 
 
 def randomized_response_min_max(W: FloatArray, lo: FloatArray, hi: FloatArray) -> Fraction | None:
-    """min over the box lo ≤ e ≤ hi of max_a (W_a·e) / min_a (W_a·e), exactly, where W on the cells the groups weigh is
-    randomized response: p on each group's own cell, q < p on the others' (None for any other W).
+    """min over the box lo ≤ e ≤ hi of max_a (W_a·e) / min_a (W_a·e), exactly, where every cell a group weighs is
+    randomized response up to a scale: s_c·p for the cell's own group, s_c·q < s_c·p for every other (None for any
+    other W).
 
-    With d = p − q and S = Σ e, W_a·e = q S + d e_a, so the ratio is (q S + d max e) / (q S + d min e): it falls as S
-    and min e rise, and every point is beaten by e(t) = min(hi, t) at t = its max e. Along t, from max lo to max hi,
-    the ratio is linear-fractional between the hi values, so its minimum is at max lo or an hi above it (1 where the
-    cells' ranges meet). ``proofs/intervals.md`` §4; O(A log A) exact operations for A groups, none of them an LP.
+    Then W_a·e = Σ_b M[a, b] E_b with M randomized response and E_b = Σ s_c e_c over the cells of group b, which range
+    over their own box; with d = p − q and S = Σ E, W_a·e = q S + d E_a, so the ratio is (q S + d max E) /
+    (q S + d min E): it falls as S and min E rise, and every point is beaten by E(t) = min(hi, t) at t = its max E.
+    Along t, from max lo to max hi, the ratio is linear-fractional between the hi values, so its minimum is at max lo
+    or an hi above it (1 where the ranges meet). ``proofs/intervals.md`` §4; O(n_cells + A log A) exact operations,
+    none of them an LP. A local map behind k-ary randomized response has one cell a group (s = 1); L̄'s map, cells
+    weighted by P(x | a), has this form where those weights times p and q are exact floats (X and A independent).
     Call it where some group can be above 0 and none is 0 on the whole box (:meth:`MinMaxRatio.solve` checks both).
 
     Parameters
     ----------
     W : array of shape (n_groups, n_cells)
-        Each group's weights on the cells; randomized response on exactly n_groups of the cells (the others 0), the
-        group's own cell at its own index among them.
+        Each group's weights on the cells.
     lo, hi : arrays of shape (n_cells,)
         The box, lo ≤ hi.
 
     Returns
     -------
     Fraction or None
-        The exact minimum, a ratio (not a log), taking the floats at their exact values; None where W is not
-        randomized response with p > q on two or more groups, or an end of a weighed cell is not finite (the LP's
-        case).
+        The exact minimum, a ratio (not a log), taking the floats at their exact values; None where W is not of this
+        form with p > q on two or more groups, or an end of a weighed cell is not finite (the LP's case).
 
     Examples
     --------
@@ -208,23 +210,29 @@ def randomized_response_min_max(W: FloatArray, lo: FloatArray, hi: FloatArray) -
     >>> randomized_response_min_max(W, np.array([0.0, 0.5, 0.25]), np.array([0.125, 0.75, 0.375]))  # at e = (1/8, 1/2, 3/8)
     Fraction(4, 3)
     """
-    cells = np.flatnonzero(W.any(0))
-    if len(W) < 2 or len(cells) != len(W) or not np.isfinite(lo[cells]).all() or not np.isfinite(hi[cells]).all():
+    A, cells = len(W), np.flatnonzero(W.any(0))
+    if A < 2 or not np.isfinite(lo[cells]).all() or not np.isfinite(hi[cells]).all():
         return None
     V = W[:, cells]
-    own, other = np.diag(V), V[~np.eye(len(W), dtype=bool)]
-    if not (np.all(own == own[0]) and np.all(other == other[0]) and own[0] > other[0]):
+    group = V.argmax(0)  # each cell's own group
+    own, other = V[group, np.arange(len(cells))], V[(group + 1) % A, np.arange(len(cells))]
+    if not (np.all((V == other) | (np.arange(A)[:, None] == group)) and np.all(own > other)):
         return None
-    q, d = Fraction(other[0]), Fraction(own[0]) - Fraction(other[0])
-    ends = sorted(map(Fraction, hi[cells]))
-    start = max(map(Fraction, lo[cells]))
-    if start <= ends[0]:  # every cell can take one value: parity
+    p, q = Fraction(own[0]), Fraction(other[0])
+    scale = [Fraction(o) / p for o in own]
+    if any(s * q != o for s, o in zip(scale, map(Fraction, other))):  # (not one randomized response, scaled)
+        return None
+    lower, upper = [Fraction(0)] * A, [Fraction(0)] * A
+    for s, b, c in zip(scale, group.tolist(), cells.tolist()):
+        lower[b], upper[b] = lower[b] + s * Fraction(lo[c]), upper[b] + s * Fraction(hi[c])
+    d, ends, start = p - q, sorted(upper), max(lower)
+    if start <= ends[0]:  # every group's E can take one value: parity
         return Fraction(1)
     best, below, i = None, Fraction(0), 0
     for t in [start] + [h for h in ends if h > start]:
         while ends[i] < t:  # (ends[-1] >= t: the loop stops at the largest hi)
             below, i = below + ends[i], i + 1
-        total = q * (below + t * (len(ends) - i))
+        total = q * (below + t * (A - i))
         ratio = (total + d * t) / (total + d * ends[0])
         best = ratio if best is None else min(best, ratio)
     return best

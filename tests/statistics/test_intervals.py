@@ -440,19 +440,24 @@ def test_min_max_ratio_lp_equals_the_same_lp_in_cvxpy(A, n):
 @st.composite
 def _randomized_response_boxes(draw):
     """A randomized response on A groups, placed on the cells of one context among X (the others weigh 0, as a local
-    map's W has them), and a box of cells: zeros, near-equal ends and ties with the largest lower end included."""
+    map's W has them) or on every context's cells weighted by P(x) (L̄'s map with X and A independent; powers of 2,
+    so that each weight times p and q is exact), and a box of cells: zeros, near-equal ends and ties with the
+    largest lower end included."""
     A, X = draw(st.integers(2, 7)), draw(st.integers(1, 3))
-    x = draw(st.integers(0, X - 1))
     eps = draw(st.sampled_from([1e-9, 0.1, 0.5, 1.0, 3.0, 10.0, 40.0, 700.0, math.inf]))
     matrix = np.eye(A) if math.isinf(eps) else randomized_response(range(A), eps).matrix
-    W = np.zeros((A, X * A))
-    W[:, x * A : (x + 1) * A] = matrix
+    weights = np.zeros(X)
+    if draw(st.booleans()):
+        weights[draw(st.integers(0, X - 1))] = 1.0
+    else:
+        weights[:] = draw(st.lists(st.sampled_from([1.0, 0.5, 0.25, 0.125]), min_size=X, max_size=X))
+    W = np.kron(weights[None, :], matrix)  # W[a, (x, b)] = P(x) M[a, b]
     unit = st.floats(0.0, 1.0)
     lo = np.array(draw(st.lists(unit | st.just(0.0), min_size=X * A, max_size=X * A)))
     width = draw(st.sampled_from([1e-6, 0.1, 1.0]))
     hi = np.minimum(lo + width * np.array(draw(st.lists(unit, min_size=X * A, max_size=X * A))), 1.0)
     if draw(st.booleans()):
-        hi[x * A + draw(st.integers(0, A - 1))] = max(hi[x * A + draw(st.integers(0, A - 1))], lo.max())
+        hi[draw(st.integers(0, X * A - 1))] = lo.max()
     assume(np.any(W @ lo > 0) and np.all(W @ hi > 0))  # (MinMaxRatio.solve answers the other cases first)
     return W, lo, hi
 
@@ -484,7 +489,13 @@ def test_randomized_response_min_max_leaves_other_matrices_to_the_lp():
     skewed = W.copy()
     skewed[0, 1] = 0.2  # one cell off: not randomized response
     assert randomized_response_min_max(skewed, lo, hi) is None
-    assert randomized_response_min_max(W[:, ::-1], lo, hi) is None  # the own cells not on the diagonal
+    assert randomized_response_min_max(W[:, ::-1], lo[::-1], hi[::-1]) == Fraction(4, 3)  # (the cells in any order)
+    halves = np.hstack([W, W]) / 2  # two contexts at P(x | a) = 1/2: each group's E is the mean of its two cells
+    assert randomized_response_min_max(halves, np.hstack([lo, lo]), np.hstack([hi, hi])) == Fraction(4, 3)
+    rr = randomized_response(range(3), 1.0).matrix  # p/3, q/3 and p/5, q/5 rounded: two ratios p/q, not one
+    mixed = np.hstack([rr / 3, rr / 5])  # (P(x | a) = 1/3 and 1/5 in floats): the LP's case
+    assert Fraction(rr[0, 0] / 3) / Fraction(rr[0, 1] / 3) != Fraction(rr[0, 0] / 5) / Fraction(rr[0, 1] / 5)
+    assert randomized_response_min_max(mixed, np.hstack([lo, lo]), np.hstack([hi, hi])) is None
     assert randomized_response_min_max(np.full((3, 3), 1 / 3), lo, hi) is None  # epsilon = 0: p = q
 
 

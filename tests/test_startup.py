@@ -109,6 +109,7 @@ def test_certify_behind_randomized_response_loads_no_search_module():
     names = _imported("-m", "fairaudit.cli", "certify", "examples/llm_hiring/gpt35.toml", "--no-progress")
     assert "fairaudit.certification.certificate" in names
     assert sorted(names & set(SEARCH)) == []
+    assert "fairaudit.base.exact_lp" not in names  # (no LP at all: every interval's lower end is a closed form)
     names = _imported("-c", "import fairaudit as fa; fa.black_box_bound(fa.randomized_response([0, 1], 1.0))")
     assert {"fairaudit.worstcase.black_box", "fairaudit.base.linear_fractional"} <= names
 

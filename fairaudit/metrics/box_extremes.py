@@ -8,7 +8,8 @@ filter each group's expectation is a fixed mixture W_a·e of kernel cells e
 that range over a box, so groups share cells: the upper end of each ratio is
 the threshold solution of a linear-fractional program
 (:func:`fairaudit.base.threshold_rule.threshold_max_many`) and the lower end a Charnes–Cooper
-LP (:class:`MinMaxRatio`); the TV gaps are linear per event (:func:`mixed_tv`).
+LP (:class:`MinMaxRatio`), in closed form behind randomized response
+(:func:`randomized_response_min_max`); the TV gaps are linear per event (:func:`mixed_tv`).
 
 Every function returns :data:`Extremes`: per map (a context for local
 metrics, one map for global ones) the lower end, the upper end and the pair
@@ -141,7 +142,9 @@ class MinMaxRatio:
     x = (σ, t, y). Solved as every linear program of fairaudit is: HiGHS's
     simplex, its basis proved optimal in exact arithmetic
     (:class:`~fairaudit.base.exact_lp.ExactProgram`); the exact optimum of the
-    floats' program, rounded down, is the lower end.
+    floats' program, rounded down, is the lower end. :meth:`solve` takes the
+    same exact optimum in closed form where W is randomized response, scaled
+    (:func:`randomized_response_min_max`), and solves no LP there.
     """
 
     def __init__(self, A: int, n: int) -> None:
